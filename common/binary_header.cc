@@ -1,0 +1,141 @@
+#include "common/binary_header.h"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <xxhash.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "common/errors.h"
+
+namespace rrslam {
+namespace {
+
+template <typename T>
+T Load(const uint8_t* p) {
+  T value;
+  std::memcpy(&value, p, sizeof(T));
+  return value;
+}
+
+template <typename T>
+void Store(uint8_t* p, T value) {
+  std::memcpy(p, &value, sizeof(T));
+}
+
+uint64_t HeaderChecksum(std::span<const uint8_t> header) {
+  std::vector<uint8_t> copy(header.begin(), header.end());
+  Store<uint64_t>(copy.data() + 32, 0);
+  return Checksum64(copy);
+}
+
+}  // namespace
+
+uint64_t Checksum64(std::span<const uint8_t> bytes) {
+  return XXH3_64bits(bytes.data(), bytes.size());
+}
+
+bool HasMagic(std::span<const uint8_t> file, const FormatSpec& spec) {
+  return file.size() >= 8 && std::memcmp(file.data(), spec.magic, 8) == 0;
+}
+
+std::vector<uint8_t> BuildBinaryHeader(const FormatSpec& spec, std::span<const uint8_t> fields,
+                                       std::span<const uint8_t> payload) {
+  const size_t padded = (fields.size() + 7) / 8 * 8;
+  std::vector<uint8_t> header(kBaseHeaderSize + padded, 0);
+  std::memcpy(header.data(), spec.magic, 8);
+  Store<uint16_t>(header.data() + 8, spec.major);
+  Store<uint16_t>(header.data() + 10, spec.minor);
+  Store<uint32_t>(header.data() + 12, static_cast<uint32_t>(header.size()));
+  Store<uint64_t>(header.data() + 16, payload.size());
+  Store<uint64_t>(header.data() + 24, Checksum64(payload));
+  if (!fields.empty()) std::memcpy(header.data() + kBaseHeaderSize, fields.data(), fields.size());
+  Store<uint64_t>(header.data() + 32, HeaderChecksum(header));
+  return header;
+}
+
+BinaryHeaderView ParseBinaryHeader(std::span<const uint8_t> file, const FormatSpec& spec,
+                                   const std::string& path) {
+  if (file.size() < kBaseHeaderSize) {
+    throw DataError(path + ": truncated: " + std::to_string(file.size()) +
+                    " bytes, shorter than a " + spec.name + " header");
+  }
+  if (!HasMagic(file, spec)) throw DataError(path + ": not a " + std::string(spec.name) + " file (bad magic)");
+  BinaryHeaderView view;
+  view.major = Load<uint16_t>(file.data() + 8);
+  view.minor = Load<uint16_t>(file.data() + 10);
+  if (view.major != spec.major) {
+    throw DataError(path + ": " + spec.name + " format version " + std::to_string(view.major) +
+                    "." + std::to_string(view.minor) + " is not supported (this build reads " +
+                    std::to_string(spec.major) + ".x)");
+  }
+  const uint32_t header_size = Load<uint32_t>(file.data() + 12);
+  const uint64_t payload_size = Load<uint64_t>(file.data() + 16);
+  if (header_size < kBaseHeaderSize || header_size > file.size()) {
+    throw DataError(path + ": corrupt header (header size " + std::to_string(header_size) +
+                    ", file size " + std::to_string(file.size()) + ")");
+  }
+  if (Load<uint64_t>(file.data() + 32) != HeaderChecksum(file.first(header_size))) {
+    throw DataError(path + ": corrupt header (header checksum mismatch)");
+  }
+  if (payload_size != file.size() - header_size) {
+    throw DataError(path + ": truncated or padded: payload is " +
+                    std::to_string(file.size() - header_size) + " bytes, header says " +
+                    std::to_string(payload_size));
+  }
+  view.payload_checksum = Load<uint64_t>(file.data() + 24);
+  view.fields = file.subspan(kBaseHeaderSize, header_size - kBaseHeaderSize);
+  view.payload = file.subspan(header_size);
+  return view;
+}
+
+void VerifyPayloadChecksum(const BinaryHeaderView& header, const std::string& path) {
+  if (Checksum64(header.payload) != header.payload_checksum) {
+    throw DataError(path + ": corrupt payload (checksum mismatch)");
+  }
+}
+
+MappedFile::MappedFile(const std::filesystem::path& path, bool populate) {
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) throw NoInputError(path.string() + ": cannot open: " + std::strerror(errno));
+  struct stat st;
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    throw NoInputError(path.string() + ": not a regular file");
+  }
+  size_ = static_cast<size_t>(st.st_size);
+  if (size_ > 0) {
+    void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE | (populate ? MAP_POPULATE : 0), fd, 0);
+    if (p == MAP_FAILED) {
+      ::close(fd);
+      throw NoInputError(path.string() + ": cannot map: " + std::strerror(errno));
+    }
+    data_ = static_cast<const uint8_t*>(p);
+  }
+  ::close(fd);
+}
+
+MappedFile::~MappedFile() {
+  if (data_ != nullptr) ::munmap(const_cast<uint8_t*>(data_), size_);
+}
+
+MappedFile::MappedFile(MappedFile&& other) noexcept : data_(other.data_), size_(other.size_) {
+  other.data_ = nullptr;
+  other.size_ = 0;
+}
+
+MappedFile& MappedFile::operator=(MappedFile&& other) noexcept {
+  if (this != &other) {
+    if (data_ != nullptr) ::munmap(const_cast<uint8_t*>(data_), size_);
+    data_ = other.data_;
+    size_ = other.size_;
+    other.data_ = nullptr;
+    other.size_ = 0;
+  }
+  return *this;
+}
+
+}  // namespace rrslam

@@ -1,0 +1,16 @@
+#include "common/errors.h"
+
+namespace rrslam {
+
+const char* ExitCodeHelp() {
+  return "Exit codes:\n"
+         "  0   success\n"
+         "  64  usage error (bad flag or option value)\n"
+         "  65  bad input data (malformed, inconsistent or unsupported file)\n"
+         "  66  missing or unreadable input\n"
+         "  70  internal error\n"
+         "  73  cannot create or write an output\n"
+         "  75  algorithm failure on this input (e.g. tracking lost everywhere)\n";
+}
+
+}  // namespace rrslam

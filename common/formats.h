@@ -1,0 +1,29 @@
+// Every file format rrslam writes, with its identity and current version.
+//
+// Binary formats start with the header of binary_header.h; HDF5 formats carry
+// the root attributes of h5io.h. A reader rejects an unknown major version,
+// accepts a newer minor version (fields it does not know are ignored), and
+// names the file and the versions in its error.
+//
+// Change log
+//   rrslam.features  1.0  per-frame keypoints and ORB descriptors (extract)
+//   rrslam.vocab_tree 1.0 hierarchical k-means tree of ORB descriptors (cluster)
+//   rrslam.vocabulary 1.0 binary bag-of-words vocabulary (vocab)
+#pragma once
+
+#include <cstdint>
+
+namespace rrslam {
+
+struct FormatSpec {
+  const char* name;   // Human-readable id, also the HDF5 "format" attribute.
+  char magic[9];      // 8 magic bytes of a binary format (plus NUL); "" for HDF5.
+  uint16_t major;     // Incompatible changes bump the major version.
+  uint16_t minor;     // Compatible additions bump the minor version.
+};
+
+inline constexpr FormatSpec kFeaturesFormat = {"rrslam.features", "", 1, 0};
+inline constexpr FormatSpec kVocabTreeFormat = {"rrslam.vocab_tree", "", 1, 0};
+inline constexpr FormatSpec kVocabularyFormat = {"rrslam.vocabulary", "RRSLVOCB", 1, 0};
+
+}  // namespace rrslam

@@ -1,0 +1,200 @@
+#include "common/h5io.h"
+
+#include <system_error>
+
+namespace rrslam {
+
+H5::H5File CreateH5File(const std::filesystem::path& path) {
+  try {
+    H5::FileCreatPropList create;
+    H5::FileAccPropList access;
+    // Fix the library format bounds so output does not depend on defaults.
+    access.setLibverBounds(H5F_LIBVER_V18, H5F_LIBVER_V110);
+    return H5::H5File(path.string(), H5F_ACC_TRUNC, create, access);
+  } catch (const H5::Exception& e) {
+    throw CantCreateError(path.string() + ": cannot create HDF5 file");
+  }
+}
+
+void WriteFormatAttributes(H5::H5File& file, const FormatSpec& spec, const std::string& producer,
+                           const nlohmann::json& options) {
+  WriteH5StringAttribute(file, "format", spec.name);
+  WriteH5ScalarAttribute(file, "format_major", spec.major, H5::PredType::STD_U16LE);
+  WriteH5ScalarAttribute(file, "format_minor", spec.minor, H5::PredType::STD_U16LE);
+  WriteH5StringAttribute(file, "producer", producer);
+  WriteH5StringAttribute(file, "options", options.dump());
+}
+
+H5FormatInfo ReadFormatAttributes(const H5::H5File& file) {
+  const std::string path = file.getFileName();
+  H5FormatInfo info;
+  info.format = ReadH5StringAttribute(file, "format", path);
+  info.major = static_cast<uint16_t>(ReadH5ScalarAttribute(file, "format_major", path));
+  info.minor = static_cast<uint16_t>(ReadH5ScalarAttribute(file, "format_minor", path));
+  if (file.attrExists("producer")) info.producer = ReadH5StringAttribute(file, "producer", path);
+  if (file.attrExists("options")) {
+    const std::string text = ReadH5StringAttribute(file, "options", path);
+    info.options = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  }
+  return info;
+}
+
+H5::H5File OpenH5File(const std::filesystem::path& path, const FormatSpec& spec,
+                      H5FormatInfo* info) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw NoInputError(path.string() + ": no such file");
+  }
+  if (H5::H5File::isHdf5(path.string()) <= 0) {
+    throw DataError(path.string() + ": not an HDF5 file (expected " + spec.name + ")");
+  }
+  H5::H5File file;
+  try {
+    file.openFile(path.string(), H5F_ACC_RDONLY);
+  } catch (const H5::Exception&) {
+    throw DataError(path.string() + ": cannot open as HDF5 (corrupt or truncated?)");
+  }
+  if (!file.attrExists("format")) {
+    throw DataError(path.string() + ": HDF5 file without a 'format' attribute (expected " +
+                    spec.name + ")");
+  }
+  H5FormatInfo read = ReadFormatAttributes(file);
+  if (read.format != spec.name) {
+    throw DataError(path.string() + ": is a " + read.format + " file, expected " + spec.name);
+  }
+  if (read.major != spec.major) {
+    throw DataError(path.string() + ": " + spec.name + " version " + std::to_string(read.major) +
+                    "." + std::to_string(read.minor) + " is not supported (this build reads " +
+                    std::to_string(spec.major) + ".x)");
+  }
+  if (info != nullptr) *info = std::move(read);
+  return file;
+}
+
+void WriteH5Array(H5::Group& group, const std::string& name, const void* data,
+                  const H5::PredType& type, const std::vector<hsize_t>& dims,
+                  hsize_t chunk_rows) {
+  H5::DataSpace space(static_cast<int>(dims.size()), dims.data());
+  H5::DSetCreatPropList props;
+  H5Pset_obj_track_times(props.getId(), false);
+  bool empty = dims.empty();
+  for (hsize_t d : dims) empty = empty || d == 0;
+  if (chunk_rows > 0 && !empty) {
+    std::vector<hsize_t> chunk = dims;
+    chunk[0] = std::min(chunk_rows, dims[0]);
+    props.setChunk(static_cast<int>(chunk.size()), chunk.data());
+    props.setDeflate(4);
+  }
+  H5::DataSet set = group.createDataSet(name, type, space, props);
+  if (!empty) set.write(data, type);
+}
+
+std::vector<hsize_t> H5ArrayShape(const H5::Group& group, const std::string& name,
+                                  const std::string& path) {
+  if (!group.nameExists(name)) throw DataError(path + ": missing dataset " + name);
+  try {
+    H5::DataSet set = group.openDataSet(name);
+    H5::DataSpace space = set.getSpace();
+    std::vector<hsize_t> dims(space.getSimpleExtentNdims());
+    space.getSimpleExtentDims(dims.data());
+    return dims;
+  } catch (const H5::Exception&) {
+    throw DataError(path + ": cannot read dataset " + name);
+  }
+}
+
+void ReadH5Array(const H5::Group& group, const std::string& name, void* out,
+                 const H5::PredType& type, const std::string& path) {
+  try {
+    H5::DataSet set = group.openDataSet(name);
+    set.read(out, type);
+  } catch (const H5::Exception&) {
+    throw DataError(path + ": cannot read dataset " + name + " (corrupt or wrong type)");
+  }
+}
+
+void WriteH5StringAttribute(H5::H5Object& object, const std::string& name,
+                            const std::string& value) {
+  H5::StrType type(H5::PredType::C_S1, H5T_VARIABLE);
+  type.setCset(H5T_CSET_UTF8);
+  H5::Attribute attribute = object.createAttribute(name, type, H5::DataSpace(H5S_SCALAR));
+  attribute.write(type, value);
+}
+
+std::string ReadH5StringAttribute(const H5::H5Object& object, const std::string& name,
+                                  const std::string& path) {
+  if (!object.attrExists(name)) throw DataError(path + ": missing attribute " + name);
+  try {
+    H5::Attribute attribute = object.openAttribute(name);
+    std::string value;
+    attribute.read(attribute.getStrType(), value);
+    return value;
+  } catch (const H5::Exception&) {
+    throw DataError(path + ": attribute " + name + " is not a string");
+  }
+}
+
+void WriteH5ScalarAttribute(H5::H5Object& object, const std::string& name, double value,
+                            const H5::PredType& stored_type) {
+  H5::Attribute attribute = object.createAttribute(name, stored_type, H5::DataSpace(H5S_SCALAR));
+  attribute.write(H5::PredType::NATIVE_DOUBLE, &value);
+}
+
+double ReadH5ScalarAttribute(const H5::H5Object& object, const std::string& name,
+                             const std::string& path) {
+  if (!object.attrExists(name)) throw DataError(path + ": missing attribute " + name);
+  try {
+    H5::Attribute attribute = object.openAttribute(name);
+    double value = 0;
+    attribute.read(H5::PredType::NATIVE_DOUBLE, &value);
+    return value;
+  } catch (const H5::Exception&) {
+    throw DataError(path + ": attribute " + name + " is not numeric");
+  }
+}
+
+}  // namespace rrslam
+
+namespace rrslam {
+
+void WriteH5StringArray(H5::Group& group, const std::string& name,
+                        const std::vector<std::string>& values) {
+  H5::StrType type(H5::PredType::C_S1, H5T_VARIABLE);
+  type.setCset(H5T_CSET_UTF8);
+  const hsize_t dims[1] = {values.size()};
+  H5::DataSpace space(1, dims);
+  H5::DSetCreatPropList props;
+  H5Pset_obj_track_times(props.getId(), false);
+  H5::DataSet set = group.createDataSet(name, type, space, props);
+  std::vector<const char*> pointers;
+  pointers.reserve(values.size());
+  for (const std::string& value : values) pointers.push_back(value.c_str());
+  if (!values.empty()) set.write(pointers.data(), type);
+}
+
+std::vector<std::string> ReadH5StringArray(const H5::Group& group, const std::string& name,
+                                           const std::string& path) {
+  const std::vector<hsize_t> dims = H5ArrayShape(group, name, path);
+  if (dims.size() != 1) throw DataError(path + ": dataset " + name + " is not a string list");
+  std::vector<std::string> values;
+  if (dims[0] == 0) return values;
+  try {
+    H5::DataSet set = group.openDataSet(name);
+    H5::DataType file_type = set.getDataType();
+    if (file_type.getClass() != H5T_STRING) {
+      throw DataError(path + ": dataset " + name + " is not a string list");
+    }
+    H5::StrType type(H5::PredType::C_S1, H5T_VARIABLE);
+    std::vector<char*> pointers(dims[0], nullptr);
+    set.read(pointers.data(), type);
+    values.reserve(dims[0]);
+    for (char* p : pointers) values.emplace_back(p != nullptr ? p : "");
+    H5::DataSpace space = set.getSpace();
+    H5Dvlen_reclaim(type.getId(), space.getId(), H5P_DEFAULT, pointers.data());
+  } catch (const H5::Exception&) {
+    throw DataError(path + ": cannot read dataset " + name);
+  }
+  return values;
+}
+
+}  // namespace rrslam

@@ -1,0 +1,167 @@
+#include "common/settings.h"
+
+#include <cmath>
+#include <cstdio>
+#include <opencv2/core.hpp>
+#include <sstream>
+
+#include "common/atomic_file.h"
+#include "common/errors.h"
+
+namespace rrslam {
+namespace {
+
+// Reads a numeric key; returns false when absent. Throws when present but not numeric.
+bool ReadNumber(const cv::FileStorage& fs, const std::string& key, const std::string& path,
+                double* value) {
+  const cv::FileNode node = fs[key];
+  if (node.empty() || node.isNone()) return false;
+  if (!node.isReal() && !node.isInt()) {
+    throw DataError(path + ": " + key + " is not a number");
+  }
+  *value = static_cast<double>(node);
+  return true;
+}
+
+bool ReadInt(const cv::FileStorage& fs, const std::string& key, const std::string& path,
+             int* value) {
+  double number = 0;
+  if (!ReadNumber(fs, key, path, &number)) return false;
+  if (number != std::floor(number) || std::fabs(number) > 1e9) {
+    throw DataError(path + ": " + key + " = " + std::to_string(number) + " is not an integer");
+  }
+  *value = static_cast<int>(number);
+  return true;
+}
+
+std::string Fmt(const char* format, double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), format, value);
+  return buffer;
+}
+
+}  // namespace
+
+bool Settings::Check(std::string* why) const {
+  auto fail = [&](const std::string& text) {
+    if (why != nullptr) *why = text;
+    return false;
+  };
+  auto positive = [](double v) { return std::isfinite(v) && v > 0; };
+  if (!positive(fx)) return fail("Camera.fx = " + Fmt("%g", fx) + "; must be > 0");
+  if (!positive(fy)) return fail("Camera.fy = " + Fmt("%g", fy) + "; must be > 0");
+  if (!std::isfinite(cx)) return fail("Camera.cx is not finite");
+  if (!std::isfinite(cy)) return fail("Camera.cy is not finite");
+  for (double k : {distortion.k1, distortion.k2, distortion.p1, distortion.p2, distortion.k3}) {
+    if (!std::isfinite(k)) return fail("Camera distortion coefficient is not finite");
+  }
+  if (width < 0 || width > 100000) return fail("Camera.width = " + std::to_string(width) + "; must be in [0, 100000]");
+  if (height < 0 || height > 100000) return fail("Camera.height = " + std::to_string(height) + "; must be in [0, 100000]");
+  if (!positive(fps)) return fail("Camera.fps = " + Fmt("%g", fps) + "; must be > 0");
+  if (!positive(bf)) return fail("Camera.bf = " + Fmt("%g", bf) + "; must be > 0");
+  if (!positive(th_depth)) return fail("ThDepth = " + Fmt("%g", th_depth) + "; must be > 0");
+  if (!positive(depth_map_factor)) {
+    return fail("DepthMapFactor = " + Fmt("%g", depth_map_factor) + "; must be > 0");
+  }
+  if (orb.n_features < 1 || orb.n_features > 100000) {
+    return fail("ORBextractor.nFeatures = " + std::to_string(orb.n_features) + "; must be in [1, 100000]");
+  }
+  if (!(orb.scale_factor > 1.0 && orb.scale_factor <= 4.0)) {
+    return fail("ORBextractor.scaleFactor = " + Fmt("%g", orb.scale_factor) + "; must be in (1, 4]");
+  }
+  if (orb.n_levels < 1 || orb.n_levels > 16) {
+    return fail("ORBextractor.nLevels = " + std::to_string(orb.n_levels) + "; must be in [1, 16]");
+  }
+  if (orb.ini_th_fast < 1 || orb.ini_th_fast > 255) {
+    return fail("ORBextractor.iniThFAST = " + std::to_string(orb.ini_th_fast) + "; must be in [1, 255]");
+  }
+  if (orb.min_th_fast < 1 || orb.min_th_fast > orb.ini_th_fast) {
+    return fail("ORBextractor.minThFAST = " + std::to_string(orb.min_th_fast) +
+                "; must be in [1, iniThFAST = " + std::to_string(orb.ini_th_fast) + "]");
+  }
+  return true;
+}
+
+Settings ReadSettings(const std::filesystem::path& path) {
+  const std::string name = path.string();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw NoInputError(name + ": no such settings file");
+  const std::string text = ReadFileToString(path);
+  if (text.empty()) throw DataError(name + ": empty settings file");
+  cv::FileStorage fs;
+  try {
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+  } catch (const cv::Exception&) {
+    throw DataError(name + ": not a valid settings YAML file");
+  }
+  if (!fs.isOpened()) throw DataError(name + ": not a valid settings YAML file");
+
+  Settings s;
+  s.source = path;
+  try {
+    for (const auto& [key, field] : {std::pair{"Camera.fx", &s.fx}, {"Camera.fy", &s.fy},
+                                     {"Camera.cx", &s.cx}, {"Camera.cy", &s.cy}}) {
+      if (!ReadNumber(fs, key, name, field)) throw DataError(name + ": missing " + key);
+    }
+    ReadNumber(fs, "Camera.k1", name, &s.distortion.k1);
+    ReadNumber(fs, "Camera.k2", name, &s.distortion.k2);
+    ReadNumber(fs, "Camera.p1", name, &s.distortion.p1);
+    ReadNumber(fs, "Camera.p2", name, &s.distortion.p2);
+    ReadNumber(fs, "Camera.k3", name, &s.distortion.k3);
+    ReadInt(fs, "Camera.width", name, &s.width);
+    ReadInt(fs, "Camera.height", name, &s.height);
+    ReadNumber(fs, "Camera.fps", name, &s.fps);
+    ReadNumber(fs, "Camera.bf", name, &s.bf);
+    int rgb = 1;
+    if (ReadInt(fs, "Camera.RGB", name, &rgb)) s.rgb_order = rgb != 0;
+    ReadNumber(fs, "ThDepth", name, &s.th_depth);
+    ReadNumber(fs, "DepthMapFactor", name, &s.depth_map_factor);
+    // ORB-SLAM2 treats a zero factor as 1 (depth already in metres).
+    if (s.depth_map_factor == 0) s.depth_map_factor = 1.0;
+    ReadInt(fs, "ORBextractor.nFeatures", name, &s.orb.n_features);
+    ReadNumber(fs, "ORBextractor.scaleFactor", name, &s.orb.scale_factor);
+    ReadInt(fs, "ORBextractor.nLevels", name, &s.orb.n_levels);
+    ReadInt(fs, "ORBextractor.iniThFAST", name, &s.orb.ini_th_fast);
+    ReadInt(fs, "ORBextractor.minThFAST", name, &s.orb.min_th_fast);
+  } catch (const cv::Exception&) {
+    throw DataError(name + ": malformed settings value");
+  }
+  std::string why;
+  if (!s.Check(&why)) throw DataError(name + ": " + why);
+  return s;
+}
+
+std::string FormatSettings(const Settings& s) {
+  std::ostringstream out;
+  auto num = [](double v) { return Fmt("%.9g", v); };
+  out << "%YAML:1.0\n"
+      << "# Camera and ORB parameters in the settings layout of ORB-SLAM2's RGB-D examples.\n"
+      << "Camera.fx: " << num(s.fx) << "\n"
+      << "Camera.fy: " << num(s.fy) << "\n"
+      << "Camera.cx: " << num(s.cx) << "\n"
+      << "Camera.cy: " << num(s.cy) << "\n"
+      << "Camera.k1: " << num(s.distortion.k1) << "\n"
+      << "Camera.k2: " << num(s.distortion.k2) << "\n"
+      << "Camera.p1: " << num(s.distortion.p1) << "\n"
+      << "Camera.p2: " << num(s.distortion.p2) << "\n"
+      << "Camera.k3: " << num(s.distortion.k3) << "\n"
+      << "Camera.width: " << s.width << "\n"
+      << "Camera.height: " << s.height << "\n"
+      << "Camera.fps: " << num(s.fps) << "\n"
+      << "Camera.bf: " << num(s.bf) << "\n"
+      << "Camera.RGB: " << (s.rgb_order ? 1 : 0) << "\n"
+      << "ThDepth: " << num(s.th_depth) << "\n"
+      << "DepthMapFactor: " << num(s.depth_map_factor) << "\n"
+      << "ORBextractor.nFeatures: " << s.orb.n_features << "\n"
+      << "ORBextractor.scaleFactor: " << num(s.orb.scale_factor) << "\n"
+      << "ORBextractor.nLevels: " << s.orb.n_levels << "\n"
+      << "ORBextractor.iniThFAST: " << s.orb.ini_th_fast << "\n"
+      << "ORBextractor.minThFAST: " << s.orb.min_th_fast << "\n";
+  return out.str();
+}
+
+void WriteSettings(const std::filesystem::path& path, const Settings& settings) {
+  WriteFileAtomically(path, FormatSettings(settings));
+}
+
+}  // namespace rrslam

@@ -1,0 +1,71 @@
+// Camera and ORB-extractor settings in ORB-SLAM2's RGB-D YAML layout.
+//
+// Files look like ../shared/data/settings/tum1.yaml (`%YAML:1.0`, flat keys):
+//   Camera.fx Camera.fy Camera.cx Camera.cy        required, pixels
+//   Camera.k1 Camera.k2 Camera.p1 Camera.p2 Camera.k3   distortion, default 0
+//   Camera.width Camera.height                     pixels, default 0 = from images
+//   Camera.fps                                     default 30
+//   Camera.bf                                      baseline (m) times fx, default 40
+//   Camera.RGB                                     1 RGB, 0 BGR order, default 1
+//   ThDepth                                        close/far threshold in baselines, default 40
+//   DepthMapFactor                                 depth PNG units per metre, default 5000
+//   ORBextractor.nFeatures/scaleFactor/nLevels/iniThFAST/minThFAST
+// Keys other than these are ignored, as ORB-SLAM2 does.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "common/camera.h"
+
+namespace rrslam {
+
+struct OrbSettings {
+  int n_features = 1000;      // Features per image, over all levels; in [1, 100000].
+  double scale_factor = 1.2;  // Scale between pyramid levels; in (1, 4].
+  int n_levels = 8;           // Pyramid levels; in [1, 16].
+  int ini_th_fast = 20;       // FAST threshold tried first; in [1, 255].
+  int min_th_fast = 7;        // FAST threshold for cells that give none; in [1, ini_th_fast].
+};
+
+struct Settings {
+  // Intrinsics (pixels) and distortion.
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  Distortion distortion;
+  int width = 0;   // Image size in pixels; 0 = not given (taken from the images).
+  int height = 0;
+  double fps = 30.0;
+  double bf = 40.0;         // Baseline (metres) times fx (pixels), for virtual stereo.
+  bool rgb_order = true;    // Colour images are RGB (true) or BGR (false). rrslam reads
+                            // images through OpenCV, so this matters only for raw buffers.
+  double th_depth = 40.0;   // Close/far threshold in baselines (ORB-SLAM2's ThDepth).
+  double depth_map_factor = 5000.0;  // Depth PNG units per metre.
+  OrbSettings orb;
+
+  std::filesystem::path source;  // File these settings came from (empty if built in code).
+
+  // Baseline in metres: bf / fx.
+  double Baseline() const { return bf / fx; }
+  // Close/far depth threshold in metres, as ORB-SLAM2: bf * ThDepth / fx.
+  double ThDepthMetres() const { return bf * th_depth / fx; }
+  PinholeCamera Camera() const {
+    return PinholeCamera(fx, fy, cx, cy, width, height, distortion);
+  }
+
+  // Validates every field; on failure returns false and names the violated
+  // constraint in `why` ("ORBextractor.nLevels = 0; must be in [1, 16]").
+  bool Check(std::string* why) const;
+};
+
+// Reads and checks a settings file. Throws NoInputError when it is missing,
+// DataError when it is not parseable YAML, lacks Camera.fx/fy/cx/cy, or fails
+// Check(); the message names the file and the key.
+Settings ReadSettings(const std::filesystem::path& path);
+
+// Formats settings in the same layout (deterministic text).
+std::string FormatSettings(const Settings& settings);
+
+// Writes settings atomically. Throws CantCreateError.
+void WriteSettings(const std::filesystem::path& path, const Settings& settings);
+
+}  // namespace rrslam

@@ -1,0 +1,62 @@
+#include "common/testing.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <stdexcept>
+
+namespace rrslam::testing {
+namespace fs = std::filesystem;
+
+TempDir::TempDir() {
+  std::string pattern = (fs::temp_directory_path() / "rrslam_test_XXXXXX").string();
+  if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+  path_ = pattern;
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
+std::optional<fs::path> SharedDataDir() {
+  const char* env = std::getenv("RRSLAM_DATA_DIR");
+  const fs::path dir = env != nullptr ? fs::path(env) : fs::path("../shared/data");
+  std::error_code ec;
+  if (fs::is_directory(dir / "settings", ec)) return dir;
+  return std::nullopt;
+}
+
+fs::path BinDir() {
+  const char* env = std::getenv("RRSLAM_BIN_DIR");
+  return env != nullptr ? fs::path(env) : fs::path("build/bin");
+}
+
+CommandResult RunCommand(const std::string& command_line) {
+  CommandResult result;
+  const std::string full = command_line + " 2>&1";
+  FILE* pipe = ::popen(full.c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
+  const int status = ::pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+CommandResult RunTool(const std::string& stage, const std::string& args) {
+  return RunCommand((BinDir() / ("rrslam-" + stage)).string() + " " + args);
+}
+
+void WriteTextFile(const fs::path& path, const std::string& content) {
+  std::ofstream out(path, std::ios::binary);
+  out << content;
+}
+
+}  // namespace rrslam::testing

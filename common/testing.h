@@ -1,0 +1,51 @@
+// Helpers shared by rrslam's tests (linked into every test binary).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace rrslam::testing {
+
+// A fresh temporary folder, removed with its content on destruction.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// The shared data root (RRSLAM_DATA_DIR), or nullopt when it is absent; tests
+// that need it call GTEST_SKIP() with a message in that case.
+std::optional<std::filesystem::path> SharedDataDir();
+
+// Folder of the rrslam-* executables (RRSLAM_BIN_DIR).
+std::filesystem::path BinDir();
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together.
+};
+
+// Runs a shell command line and returns its exit code and output.
+CommandResult RunCommand(const std::string& command_line);
+
+// Runs `rrslam-<stage> <args>` from BinDir().
+CommandResult RunTool(const std::string& stage, const std::string& args);
+
+// Writes a text file (not atomically; test fixtures only).
+void WriteTextFile(const std::filesystem::path& path, const std::string& content);
+
+}  // namespace rrslam::testing
+
+// Skips the current test when the shared data is absent; defines `data_dir`.
+#define RRSLAM_REQUIRE_SHARED_DATA(data_dir)                                         \
+  const auto data_dir##_opt = ::rrslam::testing::SharedDataDir();                    \
+  if (!data_dir##_opt) GTEST_SKIP() << "shared data not found (set RRSLAM_DATA_DIR)"; \
+  const std::filesystem::path data_dir = *data_dir##_opt

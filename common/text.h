@@ -1,0 +1,25 @@
+// Parsing of the whitespace-separated text lists used by the TUM benchmark
+// (rgb.txt, depth.txt, groundtruth.txt, associations, trajectories).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rrslam {
+
+// Calls `fn(fields, line_number)` for every line of `text` that is neither
+// blank nor a '#' comment. Fields are separated by spaces, tabs or commas
+// (TUM's tools accept all three). Line numbers start at 1. `source` is unused
+// here but documents the caller's file for errors raised inside `fn`.
+void ForEachDataLine(
+    std::string_view text, const std::string& source,
+    const std::function<void(const std::vector<std::string_view>& fields, int line)>& fn);
+
+// Parses a whole field as a finite double / integer. Throws DataError naming
+// `source` and `line` otherwise.
+double ParseDouble(std::string_view field, const std::string& source, int line);
+long long ParseInteger(std::string_view field, const std::string& source, int line);
+
+}  // namespace rrslam

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs exactly the Debian packages rrslam needs to build, test and run.
+# Does nothing (and needs no root) when every package is already installed.
+# Usage: scripts/install-deps.sh [--print]   (--print lists the packages and exits)
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake ccache pkg-config git
+  libopencv-dev libeigen3-dev libceres-dev libflann-dev libopenimageio-dev
+  libhdf5-dev libcli11-dev libspdlog-dev libgtest-dev nlohmann-json3-dev
+  libxxhash-dev
+  clang libclang-rt-14-dev   # libFuzzer for `make fuzz` and the fuzz smoke tests
+)
+
+if [[ "${1:-}" == "--print" ]]; then
+  printf '%s\n' "${PACKAGES[@]}"
+  exit 0
+fi
+
+missing=()
+for pkg in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$pkg")
+  fi
+done
+
+if [[ ${#missing[@]} -eq 0 ]]; then
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}" >&2
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then
+  if command -v sudo >/dev/null; then SUDO="sudo"; else
+    echo "install-deps: need root to install: ${missing[*]}" >&2; exit 77; fi
+fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"

@@ -1,0 +1,91 @@
+// The features file written by `rrslam-extract` and read by every later stage
+// (format rrslam.features 1.0, HDF5).
+//
+// Schema (F frames, N keypoints over all frames, frame f owning keypoints
+// [keypoint_offset[f], keypoint_offset[f+1])):
+//   root attributes   format, format_major, format_minor, producer, options
+//                     (h5io.h), and `settings`: the settings YAML text used
+//   /frames/rgb_timestamp     (F)    float64  seconds
+//   /frames/depth_timestamp   (F)    float64  seconds
+//   /frames/rgb_path          (F)    string   as given by the sequence reader
+//   /frames/depth_path        (F)    string
+//   /frames/keypoint_offset   (F+1)  uint64
+//   /keypoints/pixel          (N,2)  float32  level-0 pixel in the real (distorted) image
+//   /keypoints/undistorted    (N,2)  float32  ideal pixel after undistortion
+//   /keypoints/angle          (N)    float32  orientation, degrees in [0, 360)
+//   /keypoints/octave         (N)    uint8    pyramid level
+//   /keypoints/response       (N)    float32  FAST/Harris response
+//   /keypoints/depth          (N)    float32  metres at the pixel, 0 = none
+//   /keypoints/descriptor     (N,32) uint8    ORB descriptor bytes (orb_descriptor.h)
+#pragma once
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "common/h5io.h"
+#include "common/orb_descriptor.h"
+
+namespace rrslam {
+
+// One ORB keypoint. Pixels are level-0 image coordinates.
+struct Keypoint {
+  Eigen::Vector2f pixel = Eigen::Vector2f::Zero();        // Real (distorted) image.
+  Eigen::Vector2f undistorted = Eigen::Vector2f::Zero();  // Ideal pinhole pixel.
+  float angle_deg = 0;  // Orientation by intensity centroid, [0, 360).
+  uint8_t octave = 0;   // Pyramid level it was detected on.
+  float response = 0;   // Corner score used to rank keypoints.
+  float depth = 0;      // Metres from the paired depth image at `pixel`; 0 = none.
+};
+
+// Identity of one RGB-D frame in a features file.
+struct FrameRecord {
+  double rgb_timestamp = 0;
+  double depth_timestamp = 0;
+  std::string rgb_path;
+  std::string depth_path;
+  uint64_t keypoint_begin = 0;  // Index of its first keypoint in FeaturesFile::keypoints.
+  uint64_t keypoint_end = 0;    // One past its last keypoint.
+};
+
+// A whole features file in memory, keypoints of all frames in one array.
+struct FeaturesFile {
+  H5FormatInfo format;        // Root attributes (producer, options).
+  std::string settings_yaml;  // Settings text the features were extracted with.
+  std::vector<FrameRecord> frames;
+  std::vector<Keypoint> keypoints;
+  std::vector<OrbDescriptor> descriptors;  // Parallel to keypoints.
+
+  size_t num_frames() const { return frames.size(); }
+  std::span<const Keypoint> FrameKeypoints(size_t frame) const {
+    const FrameRecord& f = frames.at(frame);
+    return {keypoints.data() + f.keypoint_begin, keypoints.data() + f.keypoint_end};
+  }
+  std::span<const OrbDescriptor> FrameDescriptors(size_t frame) const {
+    const FrameRecord& f = frames.at(frame);
+    return {descriptors.data() + f.keypoint_begin, descriptors.data() + f.keypoint_end};
+  }
+  // Appends a frame (keypoint_begin/end are set here).
+  void AddFrame(FrameRecord record, std::span<const Keypoint> frame_keypoints,
+                std::span<const OrbDescriptor> frame_descriptors);
+};
+
+// Writes `features` atomically to `path` with root attributes from `producer`
+// and `options`. Throws CantCreateError.
+void WriteFeaturesFile(const std::filesystem::path& path, const FeaturesFile& features,
+                       const std::string& producer, const nlohmann::json& options);
+
+// Reads a whole features file. Throws NoInputError when missing, DataError
+// when it is not a rrslam.features file of a supported version or is
+// inconsistent (offsets out of range, array lengths that disagree).
+FeaturesFile ReadFeaturesFile(const std::filesystem::path& path);
+
+// Reads only the descriptors of every `stride`-th frame (for vocabulary
+// training), without the keypoints.
+std::vector<OrbDescriptor> ReadFeatureDescriptors(const std::filesystem::path& path,
+                                                  size_t stride = 1);
+
+}  // namespace rrslam

@@ -1,0 +1,126 @@
+#include "stages/extract/features_file.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <random>
+
+#include "common/atomic_file.h"
+#include "common/errors.h"
+#include "common/testing.h"
+
+namespace rrslam {
+namespace {
+
+FeaturesFile MakeFeatures(int frames, int per_frame, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0, 640);
+  FeaturesFile features;
+  features.settings_yaml = "%YAML:1.0\nCamera.fx: 500\n";
+  for (int f = 0; f < frames; ++f) {
+    std::vector<Keypoint> kps(per_frame + f);
+    std::vector<OrbDescriptor> descs(kps.size());
+    for (size_t i = 0; i < kps.size(); ++i) {
+      kps[i].pixel = {u(rng), u(rng)};
+      kps[i].undistorted = {u(rng), u(rng)};
+      kps[i].angle_deg = u(rng) / 2;
+      kps[i].octave = static_cast<uint8_t>(i % 8);
+      kps[i].response = u(rng);
+      kps[i].depth = u(rng) / 100;
+      for (auto& b : descs[i].bytes) b = static_cast<uint8_t>(rng());
+    }
+    FrameRecord record{1000.0 + f / 30.0, 1000.01 + f / 30.0, "rgb/" + std::to_string(f) + ".png",
+                       "depth/" + std::to_string(f) + ".png"};
+    features.AddFrame(record, kps, descs);
+  }
+  return features;
+}
+
+TEST(FeaturesFile, RoundTrip) {
+  testing::TempDir dir;
+  const FeaturesFile written = MakeFeatures(5, 20, 1);
+  WriteFeaturesFile(dir / "f.h5", written, "rrslam-test 0", {{"stride", 1}});
+  const FeaturesFile read = ReadFeaturesFile(dir / "f.h5");
+  EXPECT_EQ(read.format.format, "rrslam.features");
+  EXPECT_EQ(read.format.major, 1);
+  EXPECT_EQ(read.format.producer, "rrslam-test 0");
+  EXPECT_EQ(read.format.options["stride"], 1);
+  EXPECT_EQ(read.settings_yaml, written.settings_yaml);
+  ASSERT_EQ(read.num_frames(), 5u);
+  ASSERT_EQ(read.keypoints.size(), written.keypoints.size());
+  for (size_t f = 0; f < 5; ++f) {
+    EXPECT_EQ(read.frames[f].rgb_path, written.frames[f].rgb_path);
+    EXPECT_EQ(read.frames[f].depth_timestamp, written.frames[f].depth_timestamp);
+    EXPECT_EQ(read.FrameKeypoints(f).size(), written.FrameKeypoints(f).size());
+  }
+  for (size_t i = 0; i < read.keypoints.size(); ++i) {
+    EXPECT_EQ(read.keypoints[i].pixel, written.keypoints[i].pixel);
+    EXPECT_EQ(read.keypoints[i].undistorted, written.keypoints[i].undistorted);
+    EXPECT_EQ(read.keypoints[i].angle_deg, written.keypoints[i].angle_deg);
+    EXPECT_EQ(read.keypoints[i].octave, written.keypoints[i].octave);
+    EXPECT_EQ(read.keypoints[i].depth, written.keypoints[i].depth);
+    EXPECT_EQ(read.descriptors[i], written.descriptors[i]);
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "f.h5.tmp"));
+}
+
+TEST(FeaturesFile, SameContentGivesSameBytes) {
+  testing::TempDir dir;
+  const FeaturesFile features = MakeFeatures(3, 10, 2);
+  WriteFeaturesFile(dir / "a.h5", features, "p", {});
+  WriteFeaturesFile(dir / "b.h5", features, "p", {});
+  EXPECT_EQ(ReadFileToString(dir / "a.h5"), ReadFileToString(dir / "b.h5"));
+}
+
+TEST(FeaturesFile, DescriptorsWithStride) {
+  testing::TempDir dir;
+  const FeaturesFile features = MakeFeatures(4, 3, 3);
+  WriteFeaturesFile(dir / "f.h5", features, "p", {});
+  const auto all = ReadFeatureDescriptors(dir / "f.h5");
+  EXPECT_EQ(all.size(), features.descriptors.size());
+  const auto every_2nd = ReadFeatureDescriptors(dir / "f.h5", 2);
+  EXPECT_EQ(every_2nd.size(), features.FrameDescriptors(0).size() + features.FrameDescriptors(2).size());
+  EXPECT_EQ(every_2nd.back(), features.FrameDescriptors(2).back());
+}
+
+TEST(FeaturesFile, RejectsMissingWrongAndTruncatedFiles) {
+  testing::TempDir dir;
+  EXPECT_THROW(ReadFeaturesFile(dir / "absent.h5"), NoInputError);
+  testing::WriteTextFile(dir / "text.h5", "not hdf5");
+  EXPECT_THROW(ReadFeaturesFile(dir / "text.h5"), DataError);
+  WriteFeaturesFile(dir / "f.h5", MakeFeatures(2, 50, 4), "p", {});
+  const std::string bytes = ReadFileToString(dir / "f.h5");
+  testing::WriteTextFile(dir / "cut.h5", bytes.substr(0, bytes.size() / 2));
+  EXPECT_THROW(ReadFeaturesFile(dir / "cut.h5"), DataError);
+}
+
+TEST(FeaturesFile, RejectsOtherFormatAndFutureMajor) {
+  testing::TempDir dir;
+  {
+    H5::H5File file = CreateH5File(dir / "other.h5");
+    WriteFormatAttributes(file, kVocabTreeFormat, "p", {});
+  }
+  EXPECT_THROW(ReadFeaturesFile(dir / "other.h5"), DataError);
+  {
+    H5::H5File file = CreateH5File(dir / "future.h5");
+    FormatSpec future = kFeaturesFormat;
+    future.major = 99;
+    WriteFormatAttributes(file, future, "p", {});
+  }
+  try {
+    ReadFeaturesFile(dir / "future.h5");
+    FAIL() << "future major accepted";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("version 99"), std::string::npos) << e.what();
+  }
+}
+
+TEST(FeaturesFile, WriteToMissingFolderFailsWithoutOutput) {
+  testing::TempDir dir;
+  EXPECT_THROW(WriteFeaturesFile(dir / "no" / "f.h5", MakeFeatures(1, 1, 5), "p", {}),
+               CantCreateError);
+  EXPECT_FALSE(std::filesystem::exists(dir / "no"));
+}
+
+}  // namespace
+}  // namespace rrslam
