@@ -74,9 +74,12 @@ BinaryHeaderView ParseBinaryHeader(std::span<const uint8_t> file, const FormatSp
   }
   const uint32_t header_size = Load<uint32_t>(file.data() + 12);
   const uint64_t payload_size = Load<uint64_t>(file.data() + 16);
-  if (header_size < kBaseHeaderSize || header_size > file.size()) {
-    throw DataError(path + ": corrupt header (header size " + std::to_string(header_size) +
-                    ", file size " + std::to_string(file.size()) + ")");
+  if (header_size < kBaseHeaderSize) {
+    throw DataError(path + ": corrupt header (header size " + std::to_string(header_size) + ")");
+  }
+  if (header_size > file.size()) {
+    throw DataError(path + ": truncated: " + std::to_string(file.size()) +
+                    " bytes, shorter than its " + std::to_string(header_size) + "-byte header");
   }
   if (Load<uint64_t>(file.data() + 32) != HeaderChecksum(file.first(header_size))) {
     throw DataError(path + ": corrupt header (header checksum mismatch)");

@@ -18,7 +18,8 @@ std::string Producer(const std::string& stage) {
 }
 
 void InitLogging(int verbosity) {
-  auto logger = spdlog::stderr_color_mt("rrslam");
+  auto logger = spdlog::get("rrslam");
+  if (!logger) logger = spdlog::stderr_color_mt("rrslam");
   spdlog::set_default_logger(logger);
   spdlog::set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
   spdlog::set_level(verbosity <= 0   ? spdlog::level::warn

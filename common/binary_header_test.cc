@@ -1,0 +1,101 @@
+#include "common/binary_header.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "common/errors.h"
+#include "common/testing.h"
+
+namespace rrslam {
+namespace {
+
+constexpr FormatSpec kTestFormat = {"rrslam.test", "RRSLTEST", 2, 3};
+
+std::vector<uint8_t> MakeFile(const FormatSpec& spec, const std::string& payload_text) {
+  const std::vector<uint8_t> fields = {1, 2, 3, 4, 5};
+  const std::vector<uint8_t> payload(payload_text.begin(), payload_text.end());
+  std::vector<uint8_t> file = BuildBinaryHeader(spec, fields, payload);
+  file.insert(file.end(), payload.begin(), payload.end());
+  return file;
+}
+
+TEST(BinaryHeader, RoundTrip) {
+  const std::vector<uint8_t> file = MakeFile(kTestFormat, "payload bytes");
+  const BinaryHeaderView view = ParseBinaryHeader(file, kTestFormat, "t.bin");
+  EXPECT_EQ(view.major, 2);
+  EXPECT_EQ(view.minor, 3);
+  ASSERT_EQ(view.fields.size(), 8u);  // Padded to a multiple of 8.
+  EXPECT_EQ(view.fields[4], 5);
+  EXPECT_EQ(view.fields[5], 0);
+  EXPECT_EQ(std::string(view.payload.begin(), view.payload.end()), "payload bytes");
+  EXPECT_NO_THROW(VerifyPayloadChecksum(view, "t.bin"));
+}
+
+TEST(BinaryHeader, AcceptsNewerMinor) {
+  FormatSpec newer = kTestFormat;
+  newer.minor = 9;
+  const std::vector<uint8_t> file = MakeFile(newer, "x");
+  EXPECT_EQ(ParseBinaryHeader(file, kTestFormat, "t.bin").minor, 9);
+}
+
+void ExpectRejected(const std::vector<uint8_t>& file, const std::string& fragment) {
+  try {
+    const BinaryHeaderView view = ParseBinaryHeader(file, kTestFormat, "t.bin");
+    VerifyPayloadChecksum(view, "t.bin");
+    FAIL() << "accepted; expected error containing '" << fragment << "'";
+  } catch (const DataError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("t.bin"), std::string::npos) << what;
+    EXPECT_NE(what.find(fragment), std::string::npos) << what;
+  }
+}
+
+TEST(BinaryHeader, RejectsTruncation) {
+  const std::vector<uint8_t> file = MakeFile(kTestFormat, "some payload");
+  for (size_t size : {size_t(0), size_t(7), size_t(39), size_t(47), file.size() - 1}) {
+    ExpectRejected(std::vector<uint8_t>(file.begin(), file.begin() + size), "runcated");
+  }
+}
+
+TEST(BinaryHeader, RejectsBadMagic) {
+  std::vector<uint8_t> file = MakeFile(kTestFormat, "p");
+  file[0] = 'X';
+  ExpectRejected(file, "bad magic");
+}
+
+TEST(BinaryHeader, RejectsFutureMajor) {
+  FormatSpec future = kTestFormat;
+  future.major = 3;
+  ExpectRejected(MakeFile(future, "p"), "version 3.3 is not supported");
+}
+
+TEST(BinaryHeader, RejectsCorruptHeaderAndPayload) {
+  std::vector<uint8_t> file = MakeFile(kTestFormat, "payload");
+  std::vector<uint8_t> header_flip = file;
+  header_flip[41] ^= 0x10;  // A format-specific field.
+  ExpectRejected(header_flip, "header checksum");
+  std::vector<uint8_t> payload_flip = file;
+  payload_flip.back() ^= 0x01;
+  ExpectRejected(payload_flip, "checksum mismatch");
+  std::vector<uint8_t> padded = file;
+  padded.push_back(0);
+  ExpectRejected(padded, "padded");
+}
+
+TEST(MappedFile, MapsWholeFileAndRejectsMissing) {
+  testing::TempDir dir;
+  testing::WriteTextFile(dir / "f.bin", "0123456789");
+  MappedFile mapped(dir / "f.bin", true);
+  ASSERT_EQ(mapped.bytes().size(), 10u);
+  EXPECT_EQ(mapped.bytes()[3], '3');
+  MappedFile moved = std::move(mapped);
+  EXPECT_EQ(moved.bytes().size(), 10u);
+  EXPECT_EQ(mapped.bytes().size(), 0u);
+  EXPECT_THROW(MappedFile(dir / "absent"), NoInputError);
+  testing::WriteTextFile(dir / "empty", "");
+  EXPECT_EQ(MappedFile(dir / "empty").bytes().size(), 0u);
+}
+
+}  // namespace
+}  // namespace rrslam

@@ -1,0 +1,170 @@
+#include "common/dataset.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "common/atomic_file.h"
+#include "common/errors.h"
+
+#include <sstream>
+#include "common/testing.h"
+
+namespace rrslam {
+namespace {
+namespace fs = std::filesystem;
+
+TEST(AssociateTimestamps, GreedyBySmallestDifferenceEachStampOnce) {
+  // 1.00 is closest to 1.005 (0.005) and 1.011 (0.011); 1.01 is closest to 1.011.
+  const std::vector<double> a = {1.00, 1.01, 2.0};
+  const std::vector<double> b = {1.005, 1.011, 2.5};
+  const auto m = AssociateTimestamps(a, b, 0.02);
+  ASSERT_EQ(m.size(), 2u);
+  EXPECT_EQ(m[0], std::make_pair(size_t(0), size_t(0)));
+  EXPECT_EQ(m[1], std::make_pair(size_t(1), size_t(1)));
+}
+
+TEST(AssociateTimestamps, GreedyTakesGlobalBestFirst) {
+  // b=1.012 is nearest to a=1.01 (0.002); a=1.00 must then take b=1.019 (0.019),
+  // not b=1.012 even though it scans first.
+  const auto m = AssociateTimestamps({1.00, 1.01}, {1.012, 1.019}, 0.02);
+  ASSERT_EQ(m.size(), 2u);
+  EXPECT_EQ(m[0], std::make_pair(size_t(0), size_t(1)));
+  EXPECT_EQ(m[1], std::make_pair(size_t(1), size_t(0)));
+}
+
+TEST(AssociateTimestamps, MaxDifferenceIsStrictAndOffsetApplies) {
+  EXPECT_TRUE(AssociateTimestamps({1.0}, {1.5}, 0.5).empty());
+  EXPECT_EQ(AssociateTimestamps({1.0}, {1.25}, 0.5).size(), 1u);
+  EXPECT_EQ(AssociateTimestamps({1.0}, {0.5}, 0.02, 0.5).size(), 1u);
+  EXPECT_TRUE(AssociateTimestamps({1.0}, {0.5}, 0.02, 0.0).empty());
+}
+
+TEST(RgbdSequence, OpensTumFr1DeskSnippet) {
+  RRSLAM_REQUIRE_SHARED_DATA(data);
+  const RgbdSequence seq = RgbdSequence::Open(data / "tum" / "fr1_desk");
+  EXPECT_EQ(seq.size(), 9u);
+  // Same pairs as ORB-SLAM2's associations file for the first frames.
+  EXPECT_DOUBLE_EQ(seq.frame(0).rgb_timestamp, 1305031453.359684);
+  EXPECT_DOUBLE_EQ(seq.frame(0).depth_timestamp, 1305031453.374112);
+  EXPECT_DOUBLE_EQ(seq.frame(1).depth_timestamp, 1305031453.404816);
+  ASSERT_TRUE(seq.groundtruth().has_value());
+  EXPECT_EQ(seq.groundtruth()->size(), 2335u);
+  const cv::Mat gray = seq.LoadGray(0);
+  EXPECT_EQ(gray.type(), CV_8UC1);
+  EXPECT_EQ(gray.cols, 640);
+  const cv::Mat depth = seq.LoadDepthRaw(0);
+  EXPECT_EQ(depth.type(), CV_16UC1);
+  const cv::Mat metres = seq.LoadDepthMetres(0, 5000.0);
+  EXPECT_EQ(metres.type(), CV_32FC1);
+  int valid = cv::countNonZero((metres > 0.3f) & (metres < 10.0f));
+  EXPECT_GT(valid, 640 * 480 / 2);
+}
+
+TEST(RgbdSequence, FullListsPairLikeOrbSlam2Associations) {
+  RRSLAM_REQUIRE_SHARED_DATA(data);
+  const fs::path dir = data / "tum" / "fr1_desk";
+  const auto rgb = ReadTimestampList(dir / "rgb_full.txt");
+  const auto depth = ReadTimestampList(dir / "depth_full.txt");
+  std::vector<double> ra, da;
+  for (const auto& e : rgb) ra.push_back(e.first);
+  for (const auto& e : depth) da.push_back(e.first);
+  const auto matches = AssociateTimestamps(ra, da, 0.02);
+  // associations_orbslam2_full.txt was made by TUM's associate.py with the defaults.
+  const std::string text = ReadFileToString(dir / "associations_orbslam2_full.txt");
+  std::vector<std::pair<double, double>> expected;
+  std::istringstream in(text);
+  double a, b;
+  std::string pa, pb;
+  while (in >> a >> pa >> b >> pb) expected.emplace_back(a, b);
+  ASSERT_EQ(matches.size(), expected.size());
+  for (size_t k = 0; k < matches.size(); ++k) {
+    EXPECT_DOUBLE_EQ(ra[matches[k].first], expected[k].first);
+    EXPECT_DOUBLE_EQ(da[matches[k].second], expected[k].second);
+  }
+}
+
+TEST(RgbdSequence, ReadsAssociationsFileAndSevenScenes) {
+  RRSLAM_REQUIRE_SHARED_DATA(data);
+  SequenceOptions options;
+  options.associations = "associations.txt";
+  const RgbdSequence seq = RgbdSequence::Open(data / "7scenes-kitchen", options);
+  EXPECT_EQ(seq.size(), 1000u);
+  EXPECT_EQ(seq.LoadColor(0).type(), CV_8UC3);  // JPEG colour.
+}
+
+class BadSequence : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    fs::create_directories(dir_ / "seq" / "rgb");
+    fs::create_directories(dir_ / "seq" / "depth");
+    cv::imwrite((dir_ / "seq" / "rgb" / "1.png").string(), cv::Mat(48, 64, CV_8UC3, cv::Scalar(1, 2, 3)));
+    cv::imwrite((dir_ / "seq" / "depth" / "1.png").string(), cv::Mat(48, 64, CV_16UC1, cv::Scalar(5000)));
+    testing::WriteTextFile(dir_ / "seq" / "rgb.txt", "# rgb\n1.0 rgb/1.png\n");
+    testing::WriteTextFile(dir_ / "seq" / "depth.txt", "# depth\n1.001 depth/1.png\n");
+  }
+  fs::path seq() const { return dir_ / "seq"; }
+  testing::TempDir dir_;
+};
+
+TEST_F(BadSequence, ValidBaseline) {
+  const RgbdSequence s = RgbdSequence::Open(seq());
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_EQ(s.LoadDepthRaw(0).at<uint16_t>(0, 0), 5000);
+  EXPECT_FALSE(s.groundtruth().has_value());
+}
+
+TEST_F(BadSequence, MissingFolderOrLists) {
+  EXPECT_THROW(RgbdSequence::Open(seq() / "nope"), NoInputError);
+  fs::remove(seq() / "depth.txt");
+  EXPECT_THROW(RgbdSequence::Open(seq()), NoInputError);
+}
+
+TEST_F(BadSequence, EmptyList) {
+  testing::WriteTextFile(seq() / "rgb.txt", "# nothing\n");
+  EXPECT_THROW(RgbdSequence::Open(seq()), DataError);
+}
+
+TEST_F(BadSequence, MalformedListLine) {
+  testing::WriteTextFile(seq() / "rgb.txt", "1.0\n");
+  EXPECT_THROW(RgbdSequence::Open(seq()), DataError);
+  testing::WriteTextFile(seq() / "rgb.txt", "abc rgb/1.png\n");
+  EXPECT_THROW(RgbdSequence::Open(seq()), DataError);
+}
+
+TEST_F(BadSequence, ListNamesAbsentImage) {
+  testing::WriteTextFile(seq() / "rgb.txt", "1.0 rgb/missing.png\n");
+  try {
+    RgbdSequence::Open(seq());
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.png"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(BadSequence, NoPairsWithinMaxDifference) {
+  testing::WriteTextFile(seq() / "depth.txt", "1.5 depth/1.png\n");
+  EXPECT_THROW(RgbdSequence::Open(seq()), DataError);
+}
+
+TEST_F(BadSequence, EightBitDepthAndSizeMismatch) {
+  cv::imwrite((seq() / "depth" / "1.png").string(), cv::Mat(48, 64, CV_8UC1, cv::Scalar(5)));
+  const RgbdSequence s = RgbdSequence::Open(seq());
+  try {
+    s.LoadDepthRaw(0);
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("16-bit"), std::string::npos) << e.what();
+  }
+  const cv::Mat rgb(48, 64, CV_8UC3), depth(24, 32, CV_16UC1);
+  EXPECT_THROW(CheckSameSize(rgb, depth, "d.png"), DataError);
+}
+
+TEST_F(BadSequence, UnreadableImage) {
+  testing::WriteTextFile(seq() / "rgb" / "1.png", "not a png");
+  const RgbdSequence s = RgbdSequence::Open(seq());
+  EXPECT_THROW(s.LoadGray(0), NoInputError);
+}
+
+}  // namespace
+}  // namespace rrslam

@@ -1,0 +1,125 @@
+#include "common/settings.h"
+
+#include <gtest/gtest.h>
+
+#include "common/errors.h"
+#include "common/testing.h"
+
+namespace rrslam {
+namespace {
+
+TEST(Settings, ReadsTum1) {
+  RRSLAM_REQUIRE_SHARED_DATA(data);
+  const Settings s = ReadSettings(data / "settings" / "tum1.yaml");
+  EXPECT_DOUBLE_EQ(s.fx, 517.306408);
+  EXPECT_DOUBLE_EQ(s.cy, 255.313989);
+  EXPECT_DOUBLE_EQ(s.distortion.k1, 0.262383);
+  EXPECT_DOUBLE_EQ(s.distortion.k3, 1.163314);
+  EXPECT_EQ(s.width, 640);
+  EXPECT_EQ(s.height, 480);
+  EXPECT_DOUBLE_EQ(s.bf, 40.0);
+  EXPECT_DOUBLE_EQ(s.depth_map_factor, 5000.0);
+  EXPECT_EQ(s.orb.n_features, 1000);
+  EXPECT_DOUBLE_EQ(s.orb.scale_factor, 1.2);
+  EXPECT_EQ(s.orb.n_levels, 8);
+  EXPECT_EQ(s.orb.ini_th_fast, 20);
+  EXPECT_EQ(s.orb.min_th_fast, 7);
+  EXPECT_NEAR(s.ThDepthMetres(), 40.0 * 40.0 / 517.306408, 1e-12);
+}
+
+TEST(Settings, ReadsEveryShippedFile) {
+  RRSLAM_REQUIRE_SHARED_DATA(data);
+  for (const char* name : {"tum1.yaml", "tum2.yaml", "tum3.yaml", "7scenes.yaml"}) {
+    EXPECT_NO_THROW(ReadSettings(data / "settings" / name)) << name;
+  }
+}
+
+TEST(Settings, FormatReadRoundTrip) {
+  testing::TempDir dir;
+  Settings s;
+  s.fx = 525.5;
+  s.fy = 524.25;
+  s.cx = 319.5;
+  s.cy = 239.5;
+  s.distortion.k1 = 0.125;
+  s.width = 320;
+  s.height = 240;
+  s.orb.n_features = 500;
+  WriteSettings(dir / "s.yaml", s);
+  const Settings r = ReadSettings(dir / "s.yaml");
+  EXPECT_EQ(r.fx, s.fx);
+  EXPECT_EQ(r.cy, s.cy);
+  EXPECT_EQ(r.distortion.k1, 0.125);
+  EXPECT_EQ(r.width, 320);
+  EXPECT_EQ(r.orb.n_features, 500);
+  EXPECT_EQ(FormatSettings(r), FormatSettings(s));
+}
+
+TEST(Settings, DefaultsApplyToOptionalKeys) {
+  testing::TempDir dir;
+  testing::WriteTextFile(dir / "s.yaml",
+                         "%YAML:1.0\nCamera.fx: 500\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n");
+  const Settings s = ReadSettings(dir / "s.yaml");
+  EXPECT_TRUE(s.distortion.IsZero());
+  EXPECT_EQ(s.width, 0);
+  EXPECT_EQ(s.depth_map_factor, 5000.0);
+  EXPECT_EQ(s.orb.n_levels, 8);
+}
+
+void ExpectDataError(const std::string& text, const std::string& fragment) {
+  testing::TempDir dir;
+  testing::WriteTextFile(dir / "bad.yaml", text);
+  try {
+    ReadSettings(dir / "bad.yaml");
+    FAIL() << "accepted: " << text;
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+  }
+}
+
+TEST(Settings, RejectsBadFiles) {
+  const std::string intrinsics = "%YAML:1.0\nCamera.fx: 500\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n";
+  ExpectDataError("", "empty");
+  ExpectDataError("%YAML:1.0\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n", "missing Camera.fx");
+  ExpectDataError("%YAML:1.0\nCamera.fx: [1, 2\n", "not a valid settings YAML");
+  ExpectDataError(intrinsics + "ORBextractor.nLevels: 0\n", "ORBextractor.nLevels = 0; must be in [1, 16]");
+  ExpectDataError(intrinsics + "Camera.width: 640.5\n", "Camera.width");
+  ExpectDataError(intrinsics + "Camera.k1: abc\n", "Camera.k1 is not a number");
+  testing::TempDir dir;
+  EXPECT_THROW(ReadSettings(dir / "absent.yaml"), NoInputError);
+}
+
+TEST(Settings, CheckNamesEachConstraint) {
+  Settings base;
+  base.fx = base.fy = 500;
+  std::string why;
+  EXPECT_TRUE(base.Check(&why)) << why;
+  struct Case {
+    void (*mutate)(Settings&);
+    const char* fragment;
+  };
+  const Case cases[] = {
+      {[](Settings& s) { s.fx = 0; }, "Camera.fx"},
+      {[](Settings& s) { s.fy = -1; }, "Camera.fy"},
+      {[](Settings& s) { s.width = -1; }, "Camera.width"},
+      {[](Settings& s) { s.fps = 0; }, "Camera.fps"},
+      {[](Settings& s) { s.bf = 0; }, "Camera.bf"},
+      {[](Settings& s) { s.th_depth = 0; }, "ThDepth"},
+      {[](Settings& s) { s.depth_map_factor = -5; }, "DepthMapFactor"},
+      {[](Settings& s) { s.orb.n_features = 0; }, "nFeatures"},
+      {[](Settings& s) { s.orb.scale_factor = 1.0; }, "scaleFactor"},
+      {[](Settings& s) { s.orb.n_levels = 17; }, "nLevels"},
+      {[](Settings& s) { s.orb.ini_th_fast = 0; }, "iniThFAST"},
+      {[](Settings& s) { s.orb.min_th_fast = 30; }, "minThFAST"},
+  };
+  for (const Case& c : cases) {
+    Settings s = base;
+    c.mutate(s);
+    EXPECT_FALSE(s.Check(&why)) << c.fragment;
+    EXPECT_NE(why.find(c.fragment), std::string::npos) << why;
+  }
+}
+
+}  // namespace
+}  // namespace rrslam
