@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <tuple>
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
+#include "common/image_io.h"
 #include "common/text.h"
 
 namespace rrslam {
@@ -144,30 +143,12 @@ RgbdSequence RgbdSequence::Open(const fs::path& dir, const SequenceOptions& opti
   return seq;
 }
 
-cv::Mat LoadColorImage(const fs::path& path) {
-  cv::Mat image;
-  try {
-    image = cv::imread(path.string(), cv::IMREAD_COLOR);
-  } catch (const cv::Exception&) {
-  }
-  if (image.empty()) throw NoInputError(path.string() + ": cannot read image");
-  return image;
-}
+cv::Mat LoadColorImage(const fs::path& path) { return ReadImage(path, ImageReadMode::kColor); }
 
-cv::Mat LoadGrayImage(const fs::path& path) {
-  const cv::Mat color = LoadColorImage(path);
-  cv::Mat gray;
-  cv::cvtColor(color, gray, cv::COLOR_BGR2GRAY);
-  return gray;
-}
+cv::Mat LoadGrayImage(const fs::path& path) { return ReadImage(path, ImageReadMode::kGray); }
 
 cv::Mat LoadDepthImage(const fs::path& path) {
-  cv::Mat depth;
-  try {
-    depth = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception&) {
-  }
-  if (depth.empty()) throw NoInputError(path.string() + ": cannot read depth image");
+  const cv::Mat depth = ReadImage(path, ImageReadMode::kUnchanged);
   if (depth.type() != CV_16UC1) {
     throw DataError(path.string() + ": depth must be 16-bit single-channel, got " +
                     std::to_string(8 * depth.elemSize1()) + "-bit " +

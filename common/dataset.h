@@ -64,9 +64,11 @@ class RgbdSequence {
   // groundtruth.txt when present (read at Open), else nullopt.
   const std::optional<Trajectory>& groundtruth() const { return groundtruth_; }
 
-  // Colour image as 8-bit BGR (CV_8UC3). Throws NoInputError when unreadable.
+  // Colour image as 8-bit BGR (CV_8UC3). Throws NoInputError when the file
+  // cannot be opened, DataError when it is not a readable 8-bit PNG or JPEG.
   cv::Mat LoadColor(size_t i) const;
-  // Grayscale 8-bit image (CV_8UC1), converted from colour as OpenCV does.
+  // Grayscale 8-bit image (CV_8UC1): a JPEG's luma channel, or a PNG converted
+  // as cv::COLOR_BGR2GRAY (common/image_io.h).
   cv::Mat LoadGray(size_t i) const;
   // Raw depth image (CV_16UC1). Throws DataError when it is not 16-bit single-channel.
   cv::Mat LoadDepthRaw(size_t i) const;

@@ -163,7 +163,7 @@ TEST_F(BadSequence, EightBitDepthAndSizeMismatch) {
 TEST_F(BadSequence, UnreadableImage) {
   testing::WriteTextFile(seq() / "rgb" / "1.png", "not a png");
   const RgbdSequence s = RgbdSequence::Open(seq());
-  EXPECT_THROW(s.LoadGray(0), NoInputError);
+  EXPECT_THROW(s.LoadGray(0), DataError);
 }
 
 }  // namespace

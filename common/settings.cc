@@ -86,7 +86,12 @@ Settings ReadSettings(const std::filesystem::path& path) {
   const std::string name = path.string();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw NoInputError(name + ": no such settings file");
-  const std::string text = ReadFileToString(path);
+  Settings s = ParseSettings(ReadFileToString(path), name);
+  s.source = path;
+  return s;
+}
+
+Settings ParseSettings(const std::string& text, const std::string& name) {
   if (text.empty()) throw DataError(name + ": empty settings file");
   cv::FileStorage fs;
   try {
@@ -97,7 +102,6 @@ Settings ReadSettings(const std::filesystem::path& path) {
   if (!fs.isOpened()) throw DataError(name + ": not a valid settings YAML file");
 
   Settings s;
-  s.source = path;
   try {
     for (const auto& [key, field] : {std::pair{"Camera.fx", &s.fx}, {"Camera.fy", &s.fy},
                                      {"Camera.cx", &s.cx}, {"Camera.cy", &s.cy}}) {

@@ -62,6 +62,11 @@ struct Settings {
 // Check(); the message names the file and the key.
 Settings ReadSettings(const std::filesystem::path& path);
 
+// Parses and checks settings text (e.g. the copy a features file records) with
+// the errors of ReadSettings; `name` stands for the file in messages. The
+// result's `source` is empty.
+Settings ParseSettings(const std::string& text, const std::string& name);
+
 // Formats settings in the same layout (deterministic text).
 std::string FormatSettings(const Settings& settings);
 

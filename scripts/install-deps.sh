@@ -8,7 +8,7 @@ PACKAGES=(
   build-essential cmake ccache pkg-config git
   libopencv-dev libeigen3-dev libceres-dev libflann-dev libopenimageio-dev
   libhdf5-dev libcli11-dev libspdlog-dev libgtest-dev nlohmann-json3-dev
-  libxxhash-dev
+  libxxhash-dev libpng-dev libjpeg-dev
   clang libclang-rt-14-dev   # libFuzzer for `make fuzz` and the fuzz smoke tests
 )
 

@@ -1,0 +1,44 @@
+// Image files: PNG (8-bit grey/colour, 16-bit grey) and JPEG, read and written
+// with libpng and libjpeg-turbo directly.
+//
+// Why not cv::imread/cv::imwrite: Debian's libopencv_imgcodecs links GDAL and
+// about 120 further libraries, which adds ~0.3 s to the start-up of every
+// process that links it; rrslam's stages and a robot's start-up should not pay
+// that. Colour images are BGR in memory (OpenCV's order). Thread-safe.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <opencv2/core/mat.hpp>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace rrslam {
+
+enum class ImageReadMode {
+  kUnchanged,  // As stored: CV_8UC1, CV_8UC3 (BGR), CV_8UC4 (BGRA) or CV_16UC1.
+  kColor,      // CV_8UC3 BGR (grey is replicated, alpha dropped; 16-bit rejected).
+  kGray,       // CV_8UC1 (colour converted as cv::COLOR_BGR2GRAY; 16-bit rejected).
+};
+
+// Reads a PNG or JPEG file (told by its signature). Throws NoInputError when the
+// file cannot be opened, DataError when it is not a readable PNG/JPEG or its
+// pixel format does not fit `mode`. Messages name the file.
+cv::Mat ReadImage(const std::filesystem::path& path, ImageReadMode mode = ImageReadMode::kUnchanged);
+
+// Decodes PNG or JPEG bytes; `name` stands for the file in errors.
+cv::Mat DecodeImage(std::span<const uint8_t> bytes, ImageReadMode mode, const std::string& name);
+
+// Encodes CV_8UC1, CV_8UC3 (BGR), CV_8UC4 (BGRA) or CV_16UC1 as PNG with zlib
+// `compression` in [0, 9] and optional tEXt chunks (key, value). The same
+// pixels and options always give the same bytes.
+std::vector<uint8_t> EncodePng(const cv::Mat& image, int compression = 1,
+                               const std::vector<std::pair<std::string, std::string>>& text = {});
+
+// Writes a PNG atomically (common/atomic_file.h). Throws CantCreateError.
+void WritePng(const std::filesystem::path& path, const cv::Mat& image, int compression = 1,
+              const std::vector<std::pair<std::string, std::string>>& text = {});
+
+}  // namespace rrslam

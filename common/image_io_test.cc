@@ -1,0 +1,98 @@
+#include "common/image_io.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "common/atomic_file.h"
+#include "common/errors.h"
+#include "common/testing.h"
+
+namespace rrslam {
+namespace {
+
+cv::Mat RandomImage(int type, uint32_t seed) {
+  cv::Mat image(37, 53, type);
+  cv::RNG rng(seed);
+  rng.fill(image, cv::RNG::UNIFORM, 0, type == CV_16UC1 ? 65536 : 256);
+  return image;
+}
+
+bool Equal(const cv::Mat& a, const cv::Mat& b) {
+  return a.type() == b.type() && a.size() == b.size() && cv::norm(a, b, cv::NORM_INF) == 0;
+}
+
+TEST(ImageIo, PngRoundTripEveryType) {
+  for (int type : {CV_8UC1, CV_8UC3, CV_8UC4, CV_16UC1}) {
+    const cv::Mat image = RandomImage(type, 7);
+    const std::vector<uint8_t> png = EncodePng(image);
+    EXPECT_TRUE(Equal(DecodeImage(png, ImageReadMode::kUnchanged, "t.png"), image)) << type;
+    // OpenCV's decoder agrees on channel order and 16-bit byte order.
+    EXPECT_TRUE(Equal(cv::imdecode(png, cv::IMREAD_UNCHANGED), image)) << type;
+  }
+}
+
+TEST(ImageIo, DecodesOpenCvWrittenFiles) {
+  testing::TempDir dir;
+  const cv::Mat color = RandomImage(CV_8UC3, 1), depth = RandomImage(CV_16UC1, 2);
+  cv::imwrite((dir / "c.png").string(), color);
+  cv::imwrite((dir / "d.png").string(), depth);
+  EXPECT_TRUE(Equal(ReadImage(dir / "c.png", ImageReadMode::kColor), color));
+  EXPECT_TRUE(Equal(ReadImage(dir / "d.png"), depth));
+  cv::Mat gray_expected;
+  cv::cvtColor(color, gray_expected, cv::COLOR_BGR2GRAY);
+  EXPECT_TRUE(Equal(ReadImage(dir / "c.png", ImageReadMode::kGray), gray_expected));
+}
+
+TEST(ImageIo, JpegMatchesOpenCv) {
+  testing::TempDir dir;
+  cv::Mat smooth(48, 64, CV_8UC3);
+  for (int y = 0; y < smooth.rows; ++y)
+    for (int x = 0; x < smooth.cols; ++x) smooth.at<cv::Vec3b>(y, x) = cv::Vec3b(x * 3, y * 4, 128);
+  cv::imwrite((dir / "c.jpg").string(), smooth);
+  EXPECT_TRUE(Equal(ReadImage(dir / "c.jpg", ImageReadMode::kColor),
+                    cv::imread((dir / "c.jpg").string(), cv::IMREAD_COLOR)));
+  EXPECT_TRUE(Equal(ReadImage(dir / "c.jpg", ImageReadMode::kGray),
+                    cv::imread((dir / "c.jpg").string(), cv::IMREAD_GRAYSCALE)));
+}
+
+TEST(ImageIo, SameInputSameBytesAndTextChunks) {
+  const cv::Mat image = RandomImage(CV_8UC3, 3);
+  const auto a = EncodePng(image, 6, {{"Software", "rrslam-test"}});
+  const auto b = EncodePng(image, 6, {{"Software", "rrslam-test"}});
+  EXPECT_EQ(a, b);
+  const std::string bytes(a.begin(), a.end());
+  EXPECT_NE(bytes.find("tEXtSoftware"), std::string::npos);
+}
+
+TEST(ImageIo, RejectsCorruptTruncatedAndWrongModes) {
+  testing::TempDir dir;
+  EXPECT_THROW(ReadImage(dir / "absent.png"), NoInputError);
+  testing::WriteTextFile(dir / "text.png", "hello");
+  EXPECT_THROW(ReadImage(dir / "text.png"), DataError);
+  const auto png = EncodePng(RandomImage(CV_8UC3, 4));
+  EXPECT_THROW(DecodeImage(std::span(png).first(png.size() / 2), ImageReadMode::kUnchanged, "t"),
+               DataError);
+  std::vector<uint8_t> corrupt = png;
+  corrupt[40] ^= 0xff;  // Inside IHDR/IDAT: CRC or zlib failure.
+  EXPECT_THROW(DecodeImage(corrupt, ImageReadMode::kUnchanged, "t"), DataError);
+  const auto depth = EncodePng(RandomImage(CV_16UC1, 5));
+  EXPECT_THROW(DecodeImage(depth, ImageReadMode::kGray, "d.png"), DataError);
+  std::string jpeg = "\xff\xd8\xff\xe0 truncated";
+  EXPECT_THROW(DecodeImage(std::span(reinterpret_cast<const uint8_t*>(jpeg.data()), jpeg.size()),
+                           ImageReadMode::kColor, "t.jpg"),
+               DataError);
+}
+
+TEST(ImageIo, WritePngIsAtomic) {
+  testing::TempDir dir;
+  WritePng(dir / "a.png", RandomImage(CV_8UC1, 6));
+  EXPECT_TRUE(std::filesystem::exists(dir / "a.png"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "a.png.tmp"));
+  EXPECT_THROW(WritePng(dir / "missing" / "a.png", RandomImage(CV_8UC1, 6)), CantCreateError);
+}
+
+}  // namespace
+}  // namespace rrslam

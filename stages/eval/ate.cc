@@ -1,0 +1,156 @@
+#include "stages/eval/ate.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "common/dataset.h"
+#include "common/errors.h"
+#include "stages/eval/alignment.h"
+#include "stages/eval/association.h"
+
+namespace rrslam {
+namespace {
+
+std::string Format(const char* format, double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), format, value);
+  return buffer;
+}
+
+std::string Span(const Trajectory& trajectory) {
+  return Format("%.6f", trajectory.front().timestamp) + " to " +
+         Format("%.6f", trajectory.back().timestamp) + " s";
+}
+
+}  // namespace
+
+bool AteOptions::Check(std::string* why) const {
+  if (!(max_difference > 0) || !std::isfinite(max_difference)) {
+    *why = "max_difference = " + Format("%g", max_difference) + " s; must be > 0";
+    return false;
+  }
+  if (!std::isfinite(offset)) {
+    *why = "offset = " + Format("%g", offset) + " s; must be finite";
+    return false;
+  }
+  if (!(scale > 0) || !std::isfinite(scale)) {
+    *why = "scale = " + Format("%g", scale) + "; must be > 0";
+    return false;
+  }
+  return true;
+}
+
+nlohmann::ordered_json AteOptions::ToJson() const {
+  return {{"max_difference_s", max_difference}, {"offset_s", offset}, {"scale", scale}};
+}
+
+AteResult ComputeAte(const Trajectory& gt_input, const Trajectory& est_input,
+                     const AteOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw UsageError("ATE options: " + why);
+  AteResult result;
+  result.scale = options.scale;
+  const Trajectory gt = DistinctByTimestamp(gt_input, &result.gt_duplicates);
+  const Trajectory est = DistinctByTimestamp(est_input, &result.est_duplicates);
+  result.gt_poses = gt.size();
+  result.est_poses = est.size();
+  if (gt.empty()) throw DataError("the ground truth has no poses");
+  if (est.empty()) throw DataError("the estimate has no poses");
+
+  const auto matches =
+      AssociateTimestamps(Timestamps(gt), Timestamps(est), options.max_difference, options.offset);
+  if (matches.empty()) {
+    throw DataError("no stamps matched: no estimated stamp (plus offset " +
+                    Format("%g", options.offset) + " s) lies within max_difference " +
+                    Format("%g", options.max_difference) +
+                    " s of a ground-truth stamp (ground truth spans " + Span(gt) + ", estimate " +
+                    Span(est) + "); check --offset and that both files are of the same sequence");
+  }
+  if (matches.size() < kMinAtePairs) {
+    throw DataError("only " + std::to_string(matches.size()) +
+                    " stamp pair(s) matched within max_difference " +
+                    Format("%g", options.max_difference) + " s; ATE needs at least " +
+                    std::to_string(kMinAtePairs));
+  }
+
+  const Eigen::Index n = static_cast<Eigen::Index>(matches.size());
+  Eigen::Matrix3Xd gt_xyz(3, n), est_xyz(3, n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const auto [i, j] = matches[k];
+    gt_xyz.col(k) = gt[i].T_world_cam.translation;
+    est_xyz.col(k) = options.scale * est[j].T_world_cam.translation;
+  }
+  const RigidAlignment alignment = AlignRigid(est_xyz, gt_xyz);
+  result.T_gt_est =
+      Rigid3d(Eigen::Quaterniond(alignment.rotation).normalized(), alignment.translation);
+
+  std::vector<double> errors(matches.size());
+  result.pairs.resize(matches.size());
+  for (Eigen::Index k = 0; k < n; ++k) {
+    AtePair& pair = result.pairs[k];
+    pair.gt_timestamp = gt[matches[k].first].timestamp;
+    pair.est_timestamp = est[matches[k].second].timestamp;
+    pair.gt_position = gt_xyz.col(k);
+    pair.est_position = est_xyz.col(k);
+    // The rotation matrix itself (not its quaternion) so the figures follow
+    // evaluate_ate.py's arithmetic as closely as possible.
+    pair.est_position_aligned = alignment * pair.est_position;
+    pair.error = (pair.est_position_aligned - pair.gt_position).norm();
+    errors[k] = pair.error;
+  }
+  result.error = ComputeErrorStats(errors);
+
+  result.est_aligned.reserve(est.size());
+  for (const StampedPose& pose : est) {
+    StampedPose aligned;
+    aligned.timestamp = pose.timestamp;
+    aligned.T_world_cam =
+        Rigid3d((result.T_gt_est.rotation * pose.T_world_cam.rotation).normalized(),
+                alignment * (options.scale * pose.T_world_cam.translation));
+    result.est_aligned.push_back(aligned);
+  }
+  return result;
+}
+
+nlohmann::ordered_json AteResultToJson(const AteResult& result) {
+  const Eigen::Quaterniond& q = result.T_gt_est.rotation;
+  const Eigen::Vector3d& t = result.T_gt_est.translation;
+  return {
+      {"pairs", result.pairs.size()},
+      {"gt_poses", result.gt_poses},
+      {"est_poses", result.est_poses},
+      {"gt_duplicate_stamps", result.gt_duplicates},
+      {"est_duplicate_stamps", result.est_duplicates},
+      {"ate_m", ErrorStatsToJson(result.error)},
+      {"T_gt_est",
+       {{"quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}, {"translation", {t.x(), t.y(), t.z()}}}},
+  };
+}
+
+std::string FormatAteReport(const AteResult& result) {
+  const ErrorStats& e = result.error;
+  std::string out = "compared_pose_pairs " + std::to_string(result.pairs.size()) + " pairs\n";
+  const std::pair<const char*, double> rows[] = {{"rmse", e.rmse},     {"mean", e.mean},
+                                                 {"median", e.median}, {"std", e.std},
+                                                 {"min", e.min},       {"max", e.max}};
+  for (const auto& [name, value] : rows) {
+    out += std::string("absolute_translational_error.") + name + " " + Format("%f", value) + " m\n";
+  }
+  return out;
+}
+
+std::string FormatAteAssociations(const AteResult& result) {
+  std::string out;
+  out.reserve(result.pairs.size() * 110);
+  char line[320];
+  for (const AtePair& p : result.pairs) {
+    std::snprintf(line, sizeof(line), "%.6f %.9f %.9f %.9f %.6f %.9f %.9f %.9f\n", p.gt_timestamp,
+                  p.gt_position.x(), p.gt_position.y(), p.gt_position.z(), p.est_timestamp,
+                  p.est_position_aligned.x(), p.est_position_aligned.y(),
+                  p.est_position_aligned.z());
+    out += line;
+  }
+  return out;
+}
+
+}  // namespace rrslam

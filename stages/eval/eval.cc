@@ -1,0 +1,264 @@
+#include "stages/eval/eval.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cctype>
+#include <fstream>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+#include "common/atomic_file.h"
+#include "common/cli.h"
+#include "common/errors.h"
+#include "common/trajectory.h"
+
+namespace rrslam {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr const char* kStage = "eval";
+
+// The same file, as far as can be told before it exists.
+bool SamePath(const fs::path& a, const fs::path& b) {
+  std::error_code ec;
+  const fs::path ca = fs::weakly_canonical(fs::absolute(a), ec);
+  const fs::path cb = fs::weakly_canonical(fs::absolute(b), ec);
+  return ca == cb;
+}
+
+// Outputs must differ from the inputs and from each other.
+bool CheckOutputs(const std::vector<std::pair<std::string, fs::path>>& inputs,
+                  const std::vector<std::pair<std::string, fs::path>>& outputs, std::string* why) {
+  for (size_t k = 0; k < outputs.size(); ++k) {
+    if (outputs[k].second.empty()) continue;
+    for (const auto& [name, path] : inputs) {
+      if (SamePath(outputs[k].second, path)) {
+        *why = outputs[k].first + " " + outputs[k].second.string() + " is the " + name +
+               " input; it would be overwritten";
+        return false;
+      }
+    }
+    for (size_t l = k + 1; l < outputs.size(); ++l) {
+      if (!outputs[l].second.empty() && SamePath(outputs[k].second, outputs[l].second)) {
+        *why = outputs[k].first + " and " + outputs[l].first + " name the same file " +
+               outputs[k].second.string();
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+Trajectory ReadTrajectory(const fs::path& path, const char* what) {
+  Trajectory trajectory = ReadTumTrajectory(path);
+  spdlog::info("{}: {} poses from {}", what, trajectory.size(), path.string());
+  return trajectory;
+}
+
+// An output file prepared under its temporary name, committed later.
+class PendingOutput {
+ public:
+  PendingOutput(const fs::path& path, std::string content)
+      : output_(std::make_unique<AtomicOutput>(path)), content_(std::move(content)) {}
+
+  void Write() {
+    std::ofstream stream(output_->temp_path(), std::ios::binary | std::ios::trunc);
+    if (!stream) throw CantCreateError(output_->temp_path().string() + ": cannot open for writing");
+    stream.write(content_.data(), static_cast<std::streamsize>(content_.size()));
+    stream.flush();
+    if (!stream) throw CantCreateError(output_->temp_path().string() + ": write failed");
+  }
+  void Commit() {
+    output_->Commit();
+    spdlog::info("wrote {}", output_->final_path().string());
+  }
+
+ private:
+  std::unique_ptr<AtomicOutput> output_;
+  std::string content_;
+};
+
+// Creates every output's temporary file, then commits them all: an error in
+// any leaves no output under its final name.
+void WriteAll(std::vector<std::pair<fs::path, std::string>> files) {
+  std::vector<PendingOutput> pending;
+  pending.reserve(files.size());
+  for (auto& [path, content] : files) pending.emplace_back(path, std::move(content));
+  for (PendingOutput& output : pending) output.Write();
+  for (PendingOutput& output : pending) output.Commit();
+}
+
+std::string Header(const nlohmann::ordered_json& run, const std::string& columns) {
+  return "# " + Producer(kStage) + " " + run.dump() + "\n# " + columns + "\n";
+}
+
+std::string Lowercase(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return text;
+}
+
+// Prefixes a data error of the computation with the files it concerns.
+template <typename Fn>
+auto WithFiles(const fs::path& gt, const fs::path& est, Fn&& fn) {
+  try {
+    return fn();
+  } catch (const DataError& e) {
+    throw DataError(est.string() + " against " + gt.string() + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+bool EvalAteOptions::Check(std::string* why) const {
+  if (gt_path.empty()) {
+    *why = "the ground truth (--gt) is required";
+    return false;
+  }
+  if (est_path.empty()) {
+    *why = "the estimate (--est) is required";
+    return false;
+  }
+  if (!ate.Check(why) || !plot.Check(why)) return false;
+  if (!plot_path.empty() && Lowercase(plot_path.extension().string()) != ".png") {
+    *why = "plot " + plot_path.string() + " must be a .png file";
+    return false;
+  }
+  return CheckOutputs({{"ground-truth", gt_path}, {"estimate", est_path}},
+                      {{"--plot", plot_path},
+                       {"--save-associations", associations_path},
+                       {"--save-aligned", aligned_path}},
+                      why);
+}
+
+nlohmann::ordered_json EvalAteOptions::ToJson() const {
+  nlohmann::ordered_json j = {{"gt", gt_path.string()},
+                              {"est", est_path.string()},
+                              {"ate", ate.ToJson()},
+                              {"json", json},
+                              {"plot", plot_path.string()},
+                              {"save_associations", associations_path.string()},
+                              {"save_aligned", aligned_path.string()}};
+  if (!plot_path.empty()) j["plot_options"] = plot.ToJson();
+  return j;
+}
+
+bool EvalRpeOptions::Check(std::string* why) const {
+  if (gt_path.empty()) {
+    *why = "the ground truth (--gt) is required";
+    return false;
+  }
+  if (est_path.empty()) {
+    *why = "the estimate (--est) is required";
+    return false;
+  }
+  if (!rpe.Check(why)) return false;
+  return CheckOutputs({{"ground-truth", gt_path}, {"estimate", est_path}},
+                      {{"--save-pairs", pairs_path}}, why);
+}
+
+nlohmann::ordered_json EvalRpeOptions::ToJson() const {
+  return {{"gt", gt_path.string()},
+          {"est", est_path.string()},
+          {"rpe", rpe.ToJson()},
+          {"json", json},
+          {"save_pairs", pairs_path.string()}};
+}
+
+AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {
+  std::string why;
+  if (!options.Check(&why)) throw UsageError(why);
+  const Trajectory gt = ReadTrajectory(options.gt_path, "ground truth");
+  const Trajectory est = ReadTrajectory(options.est_path, "estimate");
+  const AteResult result = WithFiles(options.gt_path, options.est_path,
+                                     [&] { return ComputeAte(gt, est, options.ate); });
+  if (result.gt_duplicates > 0) {
+    spdlog::warn("{}: {} repeated timestamp(s); each keeps its last pose, as TUM's tools do",
+                 options.gt_path.string(), result.gt_duplicates);
+  }
+  if (result.est_duplicates > 0) {
+    spdlog::warn("{}: {} repeated timestamp(s); each keeps its last pose, as TUM's tools do",
+                 options.est_path.string(), result.est_duplicates);
+  }
+  spdlog::info("{} of {} estimated poses paired with ground truth", result.pairs.size(),
+               result.est_poses);
+
+  const nlohmann::ordered_json run = {{"command", "ate"}, {"options", options.ToJson()}};
+  std::vector<std::pair<fs::path, std::string>> files;
+  if (!options.associations_path.empty()) {
+    files.emplace_back(options.associations_path,
+                       Header(run,
+                              "gt_stamp gt_x gt_y gt_z est_stamp est_x est_y est_z "
+                              "(estimate aligned to the ground truth, metres)") +
+                           FormatAteAssociations(result));
+  }
+  if (!options.aligned_path.empty()) {
+    files.emplace_back(options.aligned_path,
+                       Header(run,
+                              "timestamp tx ty tz qx qy qz qw (estimate aligned to the "
+                              "ground truth: T_gt_est * T_world_cam)") +
+                           FormatTumTrajectory(result.est_aligned));
+  }
+  if (!options.plot_path.empty()) {
+    const std::vector<unsigned char> png =
+        EncodePng(RenderAtePlot(gt, result, options.plot),
+                  {{"Software", Producer(kStage)},
+                   {"Comment", nlohmann::ordered_json{{"run", run},
+                                                      {"ate_m", ErrorStatsToJson(result.error)},
+                                                      {"pairs", result.pairs.size()}}
+                                   .dump()}});
+    files.emplace_back(options.plot_path, std::string(png.begin(), png.end()));
+  }
+  WriteAll(std::move(files));
+
+  if (options.json) {
+    nlohmann::ordered_json j = {{"producer", Producer(kStage)},
+                                {"command", "ate"},
+                                {"gt", options.gt_path.string()},
+                                {"est", options.est_path.string()},
+                                {"options", options.ate.ToJson()}};
+    j.update(AteResultToJson(result));
+    out << j.dump(2) << "\n";
+  } else {
+    out << FormatAteReport(result);
+  }
+  out.flush();
+  return result;
+}
+
+RpeResult RunEvalRpe(const EvalRpeOptions& options, std::ostream& out) {
+  std::string why;
+  if (!options.Check(&why)) throw UsageError(why);
+  const Trajectory gt = ReadTrajectory(options.gt_path, "ground truth");
+  const Trajectory est = ReadTrajectory(options.est_path, "estimate");
+  const RpeResult result = WithFiles(options.gt_path, options.est_path,
+                                     [&] { return ComputeRpe(gt, est, options.rpe); });
+  spdlog::info("{} pose pairs compared ({} left out without ground truth within {:.6f} s)",
+               result.pairs.size(), result.skipped_pairs, result.max_difference);
+
+  if (!options.pairs_path.empty()) {
+    const nlohmann::ordered_json run = {{"command", "rpe"}, {"options", options.ToJson()}};
+    WriteAll({{options.pairs_path, Header(run,
+                                          "est_stamp_0 est_stamp_1 gt_stamp_0 gt_stamp_1 "
+                                          "translational_error_m rotational_error_deg") +
+                                       FormatRpePairs(result)}});
+  }
+
+  if (options.json) {
+    nlohmann::ordered_json j = {{"producer", Producer(kStage)},
+                                {"command", "rpe"},
+                                {"gt", options.gt_path.string()},
+                                {"est", options.est_path.string()},
+                                {"options", options.rpe.ToJson()}};
+    j.update(RpeResultToJson(result));
+    out << j.dump(2) << "\n";
+  } else {
+    out << FormatRpeReport(result);
+  }
+  out.flush();
+  return result;
+}
+
+}  // namespace rrslam

@@ -1,0 +1,267 @@
+// Runs the rrslam-eval executable: exit codes, stdout, written files.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "common/atomic_file.h"
+#include "common/geometry.h"
+#include "common/testing.h"
+#include "common/trajectory.h"
+
+namespace rrslam {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::RunTool;
+
+Trajectory MakeGroundTruth(int n) {
+  Trajectory gt;
+  for (int i = 0; i < n; ++i) {
+    const double s = i / 30.0;
+    StampedPose pose;
+    pose.timestamp = 1000 + s;
+    pose.T_world_cam.translation = Eigen::Vector3d(std::cos(s), 0.5 * std::sin(2 * s), 0.1 * s);
+    pose.T_world_cam.rotation = ExpSO3(Eigen::Vector3d(0.2 * s, 0.1, -0.3 * s));
+    gt.push_back(pose);
+  }
+  return gt;
+}
+
+Trajectory Moved(Trajectory trajectory, double time_shift = 0) {
+  const Rigid3d T(ExpSO3(Eigen::Vector3d(0.3, -1.2, 0.4)), Eigen::Vector3d(2, 1, -3));
+  for (StampedPose& pose : trajectory) {
+    pose.T_world_cam = T * pose.T_world_cam;
+    pose.timestamp += time_shift;
+  }
+  return trajectory;
+}
+
+std::string Quote(const fs::path& path) {
+  std::string quoted = "'";  // Built by appends: GCC 12 warns on "'" + string (bug 105329).
+  quoted += path.string();
+  quoted += "'";
+  return quoted;
+}
+
+// stdout only (stderr dropped), for JSON.
+testing::CommandResult RunStdout(const std::string& args) {
+  return testing::RunCommand("( " + Quote(testing::BinDir() / "rrslam-eval") + " " + args +
+                             " 2>/dev/null )");
+}
+
+class EvalTool : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    gt_ = dir_ / "groundtruth.txt";
+    est_ = dir_ / "CameraTrajectory.txt";
+    WriteTumTrajectory(gt_, MakeGroundTruth(150));
+    WriteTumTrajectory(est_, Moved(MakeGroundTruth(150), 0.004));
+  }
+  std::string Inputs() const { return "--gt " + Quote(gt_) + " --est " + Quote(est_); }
+
+  testing::TempDir dir_;
+  fs::path gt_, est_;
+};
+
+TEST_F(EvalTool, AtePrintsTheTumReport) {
+  const auto r = RunTool("eval", "ate " + Inputs());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("compared_pose_pairs 150 pairs"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("absolute_translational_error.rmse 0.000000 m"), std::string::npos);
+}
+
+TEST_F(EvalTool, AteJsonOnStdout) {
+  const auto r = RunStdout("ate --json " + Inputs() + " --max-diff 0.01 --offset 0");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto json = nlohmann::json::parse(r.output);
+  EXPECT_EQ(json["command"], "ate");
+  EXPECT_EQ(json["pairs"], 150);
+  EXPECT_LT(json["ate_m"]["rmse"].get<double>(), 1e-6);
+  EXPECT_DOUBLE_EQ(json["options"]["max_difference_s"].get<double>(), 0.01);
+  EXPECT_EQ(json["producer"].get<std::string>().rfind("rrslam-eval ", 0), 0u);
+}
+
+TEST_F(EvalTool, AteWritesPlotAssociationsAndAlignedEstimate) {
+  const fs::path png = dir_ / "ate.png", pairs = dir_ / "pairs.txt", aligned = dir_ / "aligned.txt";
+  const auto r = RunTool("eval", "ate " + Inputs() + " --plot " + Quote(png) +
+                                     " --plot-width 640 --plot-height 480 --plot-axes xy" +
+                                     " --save-associations " + Quote(pairs) + " --save-aligned " +
+                                     Quote(aligned));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const cv::Mat image = cv::imread(png.string(), cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(image.empty());
+  EXPECT_EQ(image.cols, 640);
+  EXPECT_EQ(image.rows, 480);
+  EXPECT_EQ(image.channels(), 3);
+  // The aligned estimate is the ground truth again; files carry a '#' header.
+  const Trajectory back = ReadTumTrajectory(aligned);
+  const Trajectory gt = ReadTumTrajectory(gt_);
+  ASSERT_EQ(back.size(), gt.size());
+  for (size_t i = 0; i < gt.size(); ++i) {
+    EXPECT_NEAR((back[i].T_world_cam.translation - gt[i].T_world_cam.translation).norm(), 0, 1e-6);
+  }
+  const std::string text = ReadFileToString(pairs);
+  EXPECT_EQ(text.rfind("# rrslam-eval ", 0), 0u);
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 150 + 2);
+}
+
+TEST_F(EvalTool, RpeTextAndJson) {
+  auto r = RunTool("eval", "rpe " + Inputs() + " --delta 1 --delta-unit f");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("compared_pose_pairs 148 pairs"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("rotational_error.rmse 0.000000 deg"), std::string::npos) << r.output;
+  r = RunStdout("rpe --json " + Inputs() + " --delta 0.5 --delta-unit s --error-form paper");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto json = nlohmann::json::parse(r.output);
+  EXPECT_EQ(json["command"], "rpe");
+  EXPECT_EQ(json["options"]["delta_unit"], "s");
+  EXPECT_EQ(json["options"]["error_form"], "paper");
+  EXPECT_EQ(json["pairs"], 150 - 1 - 15);
+  EXPECT_LT(json["translational_error_m"]["max"].get<double>(), 1e-6);
+}
+
+TEST_F(EvalTool, MissingInputIs66) {
+  const auto r = RunTool("eval", "ate --gt " + Quote(dir_ / "nope.txt") + " --est " + Quote(est_));
+  EXPECT_EQ(r.exit_code, 66) << r.output;
+  EXPECT_NE(r.output.find("nope.txt"), std::string::npos);
+}
+
+TEST_F(EvalTool, MalformedLineIs65NamingFileAndLine) {
+  testing::WriteTextFile(est_, "# header\n1000.0 1 2 3 0 0 0 1\n1000.1 1 2 x 0 0 0 1\n");
+  const auto r = RunTool("eval", "ate " + Inputs());
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("CameraTrajectory.txt line 3"), std::string::npos) << r.output;
+}
+
+TEST_F(EvalTool, NoMatchingStampsIs65) {
+  for (const std::string command : {"ate", "rpe"}) {
+    for (const std::string offset : {"50", "-50"}) {
+      const auto r = RunTool("eval", command + " " + Inputs() + " --offset " + offset);
+      EXPECT_EQ(r.exit_code, 65) << r.output;
+      EXPECT_NE(r.output.find("no stamps matched"), std::string::npos) << r.output;
+      EXPECT_NE(r.output.find("max_difference"), std::string::npos) << r.output;
+    }
+  }
+}
+
+TEST_F(EvalTool, FewerThanThreeAtePairsIs65) {
+  WriteTumTrajectory(est_, Moved(Trajectory(MakeGroundTruth(2))));
+  const auto r = RunTool("eval", "ate " + Inputs());
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("at least 3"), std::string::npos) << r.output;
+}
+
+TEST_F(EvalTool, BadOptionsAre64) {
+  for (const std::string args :
+       {"rpe --delta 0", "rpe --delta -1", "rpe --delta 1.5 --delta-unit f", "rpe --delta-unit m",
+        "rpe --delta abc", "ate --max-diff 0", "ate --scale -2", "ate --plot-axes xw",
+        "ate --plot-width 10 --plot x.png"}) {
+    const auto r = RunTool("eval", args + " " + Inputs());
+    EXPECT_EQ(r.exit_code, 64) << args << "\n" << r.output;
+  }
+  EXPECT_EQ(RunTool("eval", "").exit_code, 64);  // A command is required.
+  EXPECT_EQ(RunTool("eval", "ate --gt " + Quote(gt_)).exit_code, 64);
+  // An output over an input is refused before anything is written.
+  const auto r = RunTool("eval", "ate " + Inputs() + " --save-aligned " + Quote(est_));
+  EXPECT_EQ(r.exit_code, 64) << r.output;
+  EXPECT_EQ(ReadTumTrajectory(est_).size(), 150u);
+}
+
+TEST_F(EvalTool, UnwritablePlotIs73AndWritesNothing) {
+  const fs::path pairs = dir_ / "pairs.txt";
+  const auto r = RunTool("eval", "ate " + Inputs() + " --save-associations " + Quote(pairs) +
+                                     " --plot " + Quote(dir_ / "no" / "such" / "dir" / "ate.png"));
+  EXPECT_EQ(r.exit_code, 73) << r.output;
+  EXPECT_FALSE(fs::exists(pairs));
+  EXPECT_FALSE(fs::exists(dir_ / "pairs.txt.tmp"));
+  // An existing output is not destroyed by a failing run.
+  testing::WriteTextFile(pairs, "keep me\n");
+  EXPECT_EQ(RunTool("eval", "ate " + Inputs() + " --save-associations " + Quote(pairs) +
+                                " --plot " + Quote(dir_ / "no" / "ate.png"))
+                .exit_code,
+            73);
+  EXPECT_EQ(ReadFileToString(pairs), "keep me\n");
+}
+
+TEST_F(EvalTool, HelpListsFlagsWithDefaults) {
+  const auto r = RunTool("eval", "ate --help");
+  EXPECT_EQ(r.exit_code, 0);
+  for (const char* text : {"--max-diff", "0.02", "--offset", "--scale", "--plot", "--json",
+                           "--save-associations", "--save-aligned", "--plot-axes"}) {
+    EXPECT_NE(r.output.find(text), std::string::npos) << text;
+  }
+  const auto rpe = RunTool("eval", "rpe --help");
+  for (const char* text : {"--delta", "--delta-unit", "--error-form", "--max-diff"}) {
+    EXPECT_NE(rpe.output.find(text), std::string::npos) << text;
+  }
+}
+
+// Real TUM data: fr1_desk ground truth (2335 poses at 100 Hz).
+TEST(EvalToolSharedData, Fr1DeskGroundTruthAgainstItself) {
+  RRSLAM_REQUIRE_SHARED_DATA(data_dir);
+  const fs::path gt_path = data_dir / "tum" / "fr1_desk" / "groundtruth.txt";
+  if (!fs::exists(gt_path)) GTEST_SKIP() << gt_path << " absent";
+  testing::TempDir dir;
+  const Trajectory gt = ReadTumTrajectory(gt_path);
+  ASSERT_EQ(gt.size(), 2335u);
+
+  // The whole ground truth, rigidly moved: every stamp pairs, ATE ~0.
+  WriteTumTrajectory(dir / "moved.txt", Moved(gt));
+  auto r = RunStdout("ate --json --gt " + Quote(gt_path) + " --est " + Quote(dir / "moved.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto json = nlohmann::json::parse(r.output);
+  EXPECT_EQ(json["pairs"], 2335);
+  EXPECT_LT(json["ate_m"]["rmse"].get<double>(), 1e-6);
+  EXPECT_LT(json["ate_m"]["max"].get<double>(), 1e-6);
+
+  // The 9 RGB frames of rgb.txt with the poses of the ground-truth stamps
+  // nearest to them, found by hand in groundtruth.txt (|difference| in ms).
+  const std::vector<std::pair<double, double>> frames = {
+      {1305031453.359684, 1305031453.3595},  // 0.184
+      {1305031453.391690, 1305031453.3894},  // 2.290
+      {1305031453.423683, 1305031453.4195},  // 4.183
+      {1305031453.459685, 1305031453.4595},  // 0.185
+      {1305031453.491698, 1305031453.4895},  // 2.198
+      {1305031453.523684, 1305031453.5195},  // 4.184
+      {1305031453.559753, 1305031453.5595},  // 0.253
+      {1305031453.591640, 1305031453.5899},  // 1.740
+      {1305031453.627706, 1305031453.6295},  // 1.794
+  };
+  Trajectory est;
+  for (const auto& [rgb_stamp, gt_stamp] : frames) {
+    const auto it = std::find_if(gt.begin(), gt.end(),
+                                 [&](const StampedPose& p) { return p.timestamp == gt_stamp; });
+    ASSERT_NE(it, gt.end()) << gt_stamp;
+    est.push_back({rgb_stamp, it->T_world_cam});
+  }
+  WriteTumTrajectory(dir / "rgb_poses.txt", Moved(est));
+  const fs::path pairs = dir / "pairs.txt";
+  r = RunStdout("ate --json --gt " + Quote(gt_path) + " --est " + Quote(dir / "rgb_poses.txt") +
+                " --save-associations " + Quote(pairs));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  json = nlohmann::json::parse(r.output);
+  EXPECT_EQ(json["pairs"], 9);
+  EXPECT_LT(json["ate_m"]["rmse"].get<double>(), 1e-6);
+  std::istringstream lines(ReadFileToString(pairs));
+  std::string line;
+  size_t k = 0;
+  while (std::getline(lines, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    ASSERT_LT(k, frames.size());
+    EXPECT_NEAR(std::stod(line), frames[k].second, 1e-6) << k;  // The gt stamp column.
+    ++k;
+  }
+  EXPECT_EQ(k, frames.size());
+
+  // Within 2 ms only the frames at 0.184, 0.185, 0.253, 1.740 and 1.794 ms pair.
+  r = RunStdout("ate --json --max-diff 0.002 --gt " + Quote(gt_path) + " --est " +
+                Quote(dir / "rgb_poses.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(nlohmann::json::parse(r.output)["pairs"], 5);
+}
+
+}  // namespace
+}  // namespace rrslam

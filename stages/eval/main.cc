@@ -1,0 +1,139 @@
+// rrslam-eval: absolute trajectory error and relative pose error of an
+// estimated camera trajectory against ground truth (TUM RGB-D benchmark
+// definitions). See docs/eval.md.
+#include <iostream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "common/cli.h"
+#include "stages/eval/eval.h"
+
+namespace {
+
+// A flag taking one of `choices`; --help shows them and the current value
+// of `*target` as default.
+template <typename Enum>
+void AddChoice(CLI::App* command, const std::string& flag, Enum* target,
+               const std::vector<std::pair<std::string, Enum>>& choices,
+               const std::string& description) {
+  std::vector<std::string> names;
+  std::string default_name;
+  for (const auto& [name, value] : choices) {
+    names.push_back(name);
+    if (value == *target) default_name = name;
+  }
+  command
+      ->add_option_function<std::string>(
+          flag,
+          [target, choices](const std::string& given) {
+            for (const auto& [name, value] : choices) {
+              if (name == given) *target = value;
+            }
+          },
+          description)
+      ->check(CLI::IsMember(names))
+      ->default_str(default_name);
+}
+
+void AddInputs(CLI::App* command, std::filesystem::path* gt, std::filesystem::path* est) {
+  command
+      ->add_option("--gt", *gt,
+                   "Ground-truth trajectory, TUM format (timestamp tx ty tz qx qy qz qw)")
+      ->required();
+  command->add_option("--est", *est, "Estimated trajectory, TUM format (e.g. CameraTrajectory.txt)")
+      ->required();
+}
+
+void BindAte(CLI::App* command, rrslam::EvalAteOptions* options) {
+  AddInputs(command, &options->gt_path, &options->est_path);
+  command
+      ->add_option("--max-diff", options->ate.max_difference,
+                   "Largest |t_gt - (t_est + offset)| for a pair, seconds (strictly smaller)")
+      ->capture_default_str();
+  command->add_option("--offset", options->ate.offset, "Seconds added to the estimate's stamps")
+      ->capture_default_str();
+  command->add_option("--scale", options->ate.scale, "Factor applied to the estimated positions")
+      ->capture_default_str();
+  command->add_flag("--json", options->json, "Print the result as JSON instead of text");
+  command->add_option("--plot", options->plot_path,
+                      "Write a PNG top view of ground truth, aligned estimate and errors");
+  AddChoice(command, "--plot-axes", &options->plot.axes,
+            {{"auto", rrslam::PlotAxes::kAuto},
+             {"xy", rrslam::PlotAxes::kXY},
+             {"xz", rrslam::PlotAxes::kXZ},
+             {"yz", rrslam::PlotAxes::kYZ}},
+            "World axes of the plot: auto (the two of largest ground-truth extent), xy, xz, yz");
+  command->add_option("--plot-width", options->plot.width_px, "Plot width, pixels [320, 8000]")
+      ->capture_default_str();
+  command->add_option("--plot-height", options->plot.height_px, "Plot height, pixels [240, 8000]")
+      ->capture_default_str();
+  command->add_option("--plot-title", options->plot.title,
+                      "Text put before the RMSE in the plot's title (e.g. the sequence name)");
+  command->add_option(
+      "--save-associations", options->associations_path,
+      "Write the pairs: gt_stamp gt_x gt_y gt_z est_stamp est_x est_y est_z (aligned)");
+  command->add_option("--save-aligned", options->aligned_path,
+                      "Write the whole estimate after scale and alignment, TUM format");
+}
+
+void BindRpe(CLI::App* command, rrslam::EvalRpeOptions* options) {
+  AddInputs(command, &options->gt_path, &options->est_path);
+  command
+      ->add_option("--delta", options->rpe.delta,
+                   "Distance between the poses of a pair, in --delta-unit (> 0; whole for frames)")
+      ->capture_default_str();
+  AddChoice(command, "--delta-unit", &options->rpe.delta_unit,
+            {{"f", rrslam::DeltaUnit::kFrames}, {"s", rrslam::DeltaUnit::kSeconds}},
+            "Unit of --delta: f (frames of the estimate) or s (seconds)");
+  command
+      ->add_option("--max-diff", options->rpe.max_difference,
+                   "Largest |t_gt - (t_est + offset)| for a ground-truth lookup, seconds "
+                   "(inclusive); 0: twice the median ground-truth interval, as evaluate_rpe.py")
+      ->capture_default_str();
+  command->add_option("--offset", options->rpe.offset, "Seconds added to the estimate's stamps")
+      ->capture_default_str();
+  command
+      ->add_option("--scale", options->rpe.scale,
+                   "Factor applied to the estimate's relative translations")
+      ->capture_default_str();
+  AddChoice(command, "--error-form", &options->rpe.error_form,
+            {{"script", rrslam::RpeErrorForm::kTumScript}, {"paper", rrslam::RpeErrorForm::kPaper}},
+            "script: E = P Q^-1 as evaluate_rpe.py computes; paper: E = Q^-1 P as the "
+            "benchmark's paper writes (P, Q: estimated and true motion)");
+  command->add_flag("--json", options->json, "Print the result as JSON instead of text");
+  command->add_option(
+      "--save-pairs", options->pairs_path,
+      "Write one line per pair: est_t0 est_t1 gt_t0 gt_t1 trans_error_m rot_error_deg");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  rrslam::EvalAteOptions ate_options;
+  rrslam::EvalRpeOptions rpe_options;
+  CLI::App* ate = nullptr;
+  CLI::App* rpe = nullptr;
+  return rrslam::RunTool(
+      argc, argv,
+      {"eval",
+       "Evaluates an estimated camera trajectory against ground truth as the TUM RGB-D "
+       "benchmark does: absolute trajectory error (ate) or relative pose error (rpe). "
+       "The result is printed on stdout (text, or JSON with --json)."},
+      [&](CLI::App& app) {
+        app.require_subcommand(1);
+        ate = app.add_subcommand("ate", "Absolute trajectory error after rigid (Horn) alignment");
+        BindAte(ate, &ate_options);
+        ate->fallthrough();  // --quiet / --verbose after the command name.
+        rpe = app.add_subcommand("rpe", "Relative pose error over a fixed delta");
+        BindRpe(rpe, &rpe_options);
+        rpe->fallthrough();
+      },
+      [&] {
+        if (ate->parsed()) {
+          rrslam::RunEvalAte(ate_options, std::cout);
+        } else {
+          rrslam::RunEvalRpe(rpe_options, std::cout);
+        }
+      });
+}
