@@ -13,7 +13,7 @@
 namespace rrslam {
 
 // Reserves `final_path.tmp` for writing. The caller writes the temporary path by
-// any means (ofstream, HDF5, cv::imwrite), then calls Commit(). If Commit() is
+// any means (ofstream, HDF5, EncodePng), then calls Commit(). If Commit() is
 // never called, the destructor removes the temporary file or folder.
 //
 // Throws CantCreateError when the parent folder does not exist or is not

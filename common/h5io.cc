@@ -7,6 +7,9 @@ namespace rrslam {
 H5::H5File CreateH5File(const std::filesystem::path& path) {
   try {
     H5::FileCreatPropList create;
+    // No modification times in the root group's header: the same content
+    // gives the same bytes (datasets and groups are created likewise).
+    H5Pset_obj_track_times(create.getId(), false);
     H5::FileAccPropList access;
     // Fix the library format bounds so output does not depend on defaults.
     access.setLibverBounds(H5F_LIBVER_V18, H5F_LIBVER_V110);
@@ -14,6 +17,16 @@ H5::H5File CreateH5File(const std::filesystem::path& path) {
   } catch (const H5::Exception& e) {
     throw CantCreateError(path.string() + ": cannot create HDF5 file");
   }
+}
+
+H5::Group CreateH5Group(H5::Group& parent, const std::string& name) {
+  H5::PropList props(H5Pcreate(H5P_GROUP_CREATE));
+  H5Pset_obj_track_times(props.getId(), false);
+  const hid_t id = H5Gcreate2(parent.getId(), name.c_str(), H5P_DEFAULT, props.getId(), H5P_DEFAULT);
+  if (id < 0) throw H5::GroupIException("CreateH5Group", "H5Gcreate2 failed for " + name);
+  H5::Group group(id);  // Takes a reference of its own.
+  H5Gclose(id);         // Drops ours, so the Group object owns the only one.
+  return group;
 }
 
 void WriteFormatAttributes(H5::H5File& file, const FormatSpec& spec, const std::string& producer,

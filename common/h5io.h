@@ -37,6 +37,10 @@ struct H5FormatInfo {
 // Creates (truncates) an HDF5 file at `path`. Throws CantCreateError.
 H5::H5File CreateH5File(const std::filesystem::path& path);
 
+// Creates group `name` in `parent` (a file or a group) without modification
+// times, like every dataset written here. Throws H5::Exception.
+H5::Group CreateH5Group(H5::Group& parent, const std::string& name);
+
 // Writes the root attributes above.
 void WriteFormatAttributes(H5::H5File& file, const FormatSpec& spec, const std::string& producer,
                            const nlohmann::json& options);

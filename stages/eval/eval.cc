@@ -12,6 +12,7 @@
 #include "common/atomic_file.h"
 #include "common/cli.h"
 #include "common/errors.h"
+#include "common/image_io.h"
 #include "common/trajectory.h"
 
 namespace rrslam {
@@ -202,8 +203,8 @@ AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {
                            FormatTumTrajectory(result.est_aligned));
   }
   if (!options.plot_path.empty()) {
-    const std::vector<unsigned char> png =
-        EncodePng(RenderAtePlot(gt, result, options.plot),
+    const std::vector<uint8_t> png =
+        EncodePng(RenderAtePlot(gt, result, options.plot), kPlotPngCompression,
                   {{"Software", Producer(kStage)},
                    {"Comment", nlohmann::ordered_json{{"run", run},
                                                       {"ate_m", ErrorStatsToJson(result.error)},

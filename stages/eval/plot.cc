@@ -5,11 +5,11 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string_view>
 
 #include "common/atomic_file.h"
+#include "common/image_io.h"
 #include "common/errors.h"
 #include "stages/eval/association.h"
 
@@ -124,26 +124,6 @@ void PutVerticalText(cv::Mat& image, const std::string& text, cv::Point2d centre
   if (clipped.area() == 0) return;
   rotated(cv::Rect(clipped.x - target.x, clipped.y - target.y, clipped.width, clipped.height))
       .copyTo(image(clipped));
-}
-
-// CRC-32 of PNG chunks (ISO 3309 / ITU-T V.42, as zlib's crc32).
-uint32_t Crc32(std::string_view bytes) {
-  static const std::array<uint32_t, 256> table = [] {
-    std::array<uint32_t, 256> t{};
-    for (uint32_t n = 0; n < 256; ++n) {
-      uint32_t c = n;
-      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[n] = c;
-    }
-    return t;
-  }();
-  uint32_t crc = 0xFFFFFFFFu;
-  for (const char b : bytes) crc = table[(crc ^ static_cast<uint8_t>(b)) & 0xFF] ^ (crc >> 8);
-  return crc ^ 0xFFFFFFFFu;
-}
-
-void AppendBigEndian(std::string* out, uint32_t value) {
-  for (int shift = 24; shift >= 0; shift -= 8) out->push_back(static_cast<char>(value >> shift));
 }
 
 }  // namespace
@@ -383,37 +363,10 @@ cv::Mat RenderAtePlot(const Trajectory& gt_input, const AteResult& result,
   return image;
 }
 
-std::vector<unsigned char> EncodePng(const cv::Mat& image,
-                                     const std::vector<std::pair<std::string, std::string>>& text) {
-  std::vector<unsigned char> png;
-  if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 6})) {
-    throw std::runtime_error("PNG encoding failed");
-  }
-  // Signature (8 bytes) then IHDR (4 length + 4 type + 13 data + 4 CRC):
-  // text chunks go right after IHDR, where every reader finds them.
-  constexpr size_t kAfterIhdr = 8 + 25;
-  if (png.size() < kAfterIhdr ||
-      std::string_view(reinterpret_cast<const char*>(&png[12]), 4) != "IHDR") {
-    throw std::runtime_error("unexpected PNG layout from the encoder");
-  }
-  std::string chunks;
-  for (const auto& [keyword, value] : text) {
-    if (keyword.empty() || keyword.size() > 79) continue;
-    const std::string body = "tEXt" + keyword + '\0' + value;
-    AppendBigEndian(&chunks, static_cast<uint32_t>(body.size() - 4));
-    chunks += body;
-    AppendBigEndian(&chunks, Crc32(body));
-  }
-  png.insert(png.begin() + kAfterIhdr, chunks.begin(), chunks.end());
-  return png;
-}
-
 void PlotAte(const std::filesystem::path& png_path, const Trajectory& gt, const AteResult& result,
              const PlotOptions& options,
              const std::vector<std::pair<std::string, std::string>>& text) {
-  const std::vector<unsigned char> png = EncodePng(RenderAtePlot(gt, result, options), text);
-  WriteFileAtomically(png_path,
-                      std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+  WritePng(png_path, RenderAtePlot(gt, result, options), kPlotPngCompression, text);
 }
 
 }  // namespace rrslam

@@ -45,12 +45,11 @@ std::pair<int, int> ChoosePlotAxes(const Trajectory& gt, PlotAxes axes);
 cv::Mat RenderAtePlot(const Trajectory& gt, const AteResult& result,
                       const PlotOptions& options = {});
 
-// PNG bytes of `image` with `text` (keyword, value) stored as tEXt chunks
-// (e.g. {"Software", producer}); keywords are 1-79 Latin-1 characters.
-std::vector<unsigned char> EncodePng(
-    const cv::Mat& image, const std::vector<std::pair<std::string, std::string>>& text = {});
+// zlib level of plot PNGs (plots are small; favour size over speed).
+inline constexpr int kPlotPngCompression = 6;
 
-// Renders and writes the plot atomically as a PNG. Throws CantCreateError
+// Renders and writes the plot atomically as a PNG (common/image_io.h), with
+// `text` (keyword, value) as tEXt chunks. Throws CantCreateError
 // when the file cannot be written (the final path is then left untouched).
 void PlotAte(const std::filesystem::path& png_path, const Trajectory& gt, const AteResult& result,
              const PlotOptions& options = {},

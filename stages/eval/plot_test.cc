@@ -38,21 +38,6 @@ AteResult MakeResult(const Trajectory& gt) {
   return ComputeAte(gt, est);
 }
 
-// Bitwise CRC-32 (reflected polynomial 0xEDB88320), independent of the table
-// version in plot.cc.
-uint32_t BitwiseCrc32(const unsigned char* data, size_t size) {
-  uint32_t crc = 0xFFFFFFFFu;
-  for (size_t k = 0; k < size; ++k) {
-    crc ^= data[k];
-    for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-  }
-  return ~crc;
-}
-
-uint32_t BigEndian(const unsigned char* p) {
-  return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | p[3];
-}
-
 int CountPixels(const cv::Mat& image, const std::function<bool(const cv::Vec3b&)>& test) {
   int count = 0;
   for (int r = 0; r < image.rows; ++r) {
@@ -112,36 +97,6 @@ TEST(RenderAtePlot, RejectsInvalidSize) {
   EXPECT_FALSE(options.Check(&why));
   EXPECT_NE(why.find("height"), std::string::npos);
   EXPECT_TRUE(PlotOptions{}.Check(&why));
-}
-
-TEST(EncodePng, StoresTextChunksWithValidChecksums) {
-  cv::Mat image(60, 80, CV_8UC3, cv::Scalar(10, 20, 30));
-  const std::vector<unsigned char> png =
-      EncodePng(image, {{"Software", "rrslam-eval test"}, {"Comment", "{\"a\": 1}"}});
-  // The image decodes unchanged.
-  const cv::Mat decoded = cv::imdecode(png, cv::IMREAD_UNCHANGED);
-  ASSERT_FALSE(decoded.empty());
-  EXPECT_EQ(cv::norm(decoded, image, cv::NORM_INF), 0);
-  // Walk the chunks: every CRC is right, and both text chunks are there.
-  ASSERT_GT(png.size(), 8u);
-  EXPECT_EQ(std::string(png.begin() + 1, png.begin() + 4), "PNG");
-  std::vector<std::string> texts;
-  size_t pos = 8;
-  std::string last_type;
-  while (pos + 12 <= png.size()) {
-    const uint32_t length = BigEndian(&png[pos]);
-    const std::string type(png.begin() + pos + 4, png.begin() + pos + 8);
-    ASSERT_LE(pos + 12 + length, png.size());
-    EXPECT_EQ(BigEndian(&png[pos + 8 + length]), BitwiseCrc32(&png[pos + 4], 4 + length)) << type;
-    if (type == "tEXt") texts.emplace_back(png.begin() + pos + 8, png.begin() + pos + 8 + length);
-    last_type = type;
-    pos += 12 + length;
-  }
-  EXPECT_EQ(pos, png.size());
-  EXPECT_EQ(last_type, "IEND");
-  ASSERT_EQ(texts.size(), 2u);
-  EXPECT_EQ(texts[0], std::string("Software\0rrslam-eval test", 25));
-  EXPECT_EQ(texts[1], std::string("Comment\0{\"a\": 1}", 16));
 }
 
 TEST(PlotAte, WritesAReadablePngAtomically) {

@@ -1,0 +1,142 @@
+#include "stages/synth/camera_path.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rrslam::synth {
+namespace {
+
+constexpr double kTwoPi = 2.0 * M_PI;
+constexpr double kDeg = M_PI / 180.0;
+
+// Speed budgets. The main motion of every path peaks at kMainSpeed (m/s) or
+// kMainTurnRate (rad/s); the hand-held swings add at most their own budgets,
+// so the total stays below 0.4 m/s and 30 deg/s.
+constexpr double kMainSpeed = 0.3;
+constexpr double kMainTurnRate = 20.0 * kDeg;
+
+// Below this lap duration the loop cannot turn the camera once around within
+// kMainTurnRate, so it keeps looking one way.
+constexpr double kFullTurnLap = 18.0;
+
+// A periodic swing amplitude * sin(2 pi m s + phase) over a sequence of
+// duration T (s = t / T): m = round(frequency * T) >= 1 whole cycles (so the
+// path stays periodic), amplitude capped so that the peak rate
+// amplitude * 2 pi m / T stays within `rate_budget`.
+double Swing(double s, double duration, double amplitude, double frequency, double rate_budget,
+             double phase) {
+  const double m = std::max(1.0, std::round(frequency * duration));
+  const double a = std::min(amplitude, rate_budget * duration / (kTwoPi * m));
+  return a * std::sin(kTwoPi * m * s + phase);
+}
+
+}  // namespace
+
+std::string TrajectoryKindName(TrajectoryKind kind) {
+  switch (kind) {
+    case TrajectoryKind::kLoop:
+      return "loop";
+    case TrajectoryKind::kSweep:
+      return "sweep";
+    case TrajectoryKind::kRotation:
+      return "rotation";
+  }
+  return "unknown";
+}
+
+bool ParseTrajectoryKind(const std::string& name, TrajectoryKind* kind) {
+  for (TrajectoryKind k :
+       {TrajectoryKind::kLoop, TrajectoryKind::kSweep, TrajectoryKind::kRotation}) {
+    if (name == TrajectoryKindName(k)) {
+      *kind = k;
+      return true;
+    }
+  }
+  return false;
+}
+
+CameraPath::CameraPath(TrajectoryKind kind, double duration)
+    : kind_(kind), duration_(std::max(0.0, duration)) {}
+
+Rigid3d CameraPath::PoseFromAngles(const Eigen::Vector3d& centre_world, double yaw, double pitch,
+                                   double roll) {
+  const Eigen::Vector3d forward(std::cos(pitch) * std::cos(yaw), std::cos(pitch) * std::sin(yaw),
+                                std::sin(pitch));
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  // Roll turns the image clockwise as seen by the camera for positive angles.
+  const Eigen::Vector3d right_rolled = std::cos(roll) * right + std::sin(roll) * down;
+  const Eigen::Vector3d down_rolled = -std::sin(roll) * right + std::cos(roll) * down;
+  Eigen::Matrix3d R_world_cam;
+  R_world_cam.col(0) = right_rolled;
+  R_world_cam.col(1) = down_rolled;
+  R_world_cam.col(2) = forward;
+  return Rigid3d(Eigen::Quaterniond(R_world_cam).normalized(), centre_world);
+}
+
+Rigid3d CameraPath::T_world_cam(double t) const {
+  const double T = duration_;
+  const double s = T > 0 ? t / T : 0.0;  // Phase; the path has period 1 in s.
+  // Hand-held swings shared by all paths: pitch, roll and a little height.
+  const double pitch_swing = Swing(s, T, 6 * kDeg, 0.1, 4 * kDeg, 0.7);
+  const double roll = Swing(s, T, 3 * kDeg, 0.2, 2 * kDeg, 2.1);
+  const double yaw_swing = Swing(s, T, 5 * kDeg, 0.15, 3 * kDeg, 4.0);
+  const double bob = Swing(s, T, 0.06, 0.12, 0.04, 1.3);
+
+  switch (kind_) {
+    case TrajectoryKind::kLoop: {
+      const double laps = T >= kFullTurnLap ? std::floor(T / kFullTurnLap) : 1.0;
+      const double lap = T / laps;
+      const double rx = std::min(1.0, kMainSpeed * lap / kTwoPi), ry = 0.8 * rx;
+      const double theta = kTwoPi * laps * s;
+      const Eigen::Vector3d centre(rx * std::cos(theta), ry * std::sin(theta), 1.3 + bob);
+      double yaw;
+      if (lap >= kFullTurnLap) {
+        yaw = theta;  // Looking outward: once around the room per lap.
+      } else {
+        const double amplitude = std::min(50 * kDeg, kMainTurnRate * lap / kTwoPi);
+        yaw = amplitude * std::sin(theta);
+      }
+      return PoseFromAngles(centre, yaw + yaw_swing, -10 * kDeg + pitch_swing, roll);
+    }
+    case TrajectoryKind::kSweep: {
+      const double cycles = std::max(1.0, std::floor(T / 16.0));
+      const double cycle = T / cycles;
+      // Peak speed of the cosine profile is pi * length / cycle.
+      const double length = std::min(1.8, 0.4 * cycle / M_PI);
+      const double d = 0.5 * length * (1.0 - std::cos(kTwoPi * cycles * s));
+      const double lateral = Swing(s, T, 0.08, 0.1, 0.03, 0.4);
+      const Eigen::Vector3d centre(-0.9 + d, -0.4 + lateral, 1.35 + bob);
+      const double yaw = 90 * kDeg + Swing(s, T, 12 * kDeg, 0.1, 5 * kDeg, 0.0) + yaw_swing;
+      return PoseFromAngles(centre, yaw, -12 * kDeg + pitch_swing, roll);
+    }
+    case TrajectoryKind::kRotation: {
+      const double cycles = std::max(1.0, std::floor(T / 16.0));
+      const double cycle = T / cycles;
+      const double amplitude = std::min(75 * kDeg, kMainTurnRate * cycle / kTwoPi);
+      const double yaw = 45 * kDeg + amplitude * std::sin(kTwoPi * cycles * s) + yaw_swing;
+      return PoseFromAngles(Eigen::Vector3d(0.2, 0.1, 1.35), yaw, -8 * kDeg + pitch_swing, roll);
+    }
+  }
+  return Rigid3d();
+}
+
+Trajectory MakeTrajectory(TrajectoryKind kind, int frames, double fps, double start_time) {
+  Trajectory trajectory;
+  if (frames <= 0) return trajectory;
+  const CameraPath path(kind, (frames - 1) / fps);
+  trajectory.reserve(frames);
+  for (int i = 0; i < frames; ++i) {
+    const double t = i / fps;
+    Rigid3d pose = path.T_world_cam(t);
+    // q and -q are the same rotation: keep the sign continuous along the
+    // path, as a tracker's output would be.
+    if (i > 0 && pose.rotation.dot(trajectory.back().T_world_cam.rotation) < 0) {
+      pose.rotation.coeffs() = -pose.rotation.coeffs();
+    }
+    trajectory.push_back({start_time + t, pose});
+  }
+  return trajectory;
+}
+
+}  // namespace rrslam::synth

@@ -1,0 +1,71 @@
+// Camera paths through the standard room (scene.h) with exact ground truth.
+//
+// A path is a smooth, periodic function of time: the pose at time t (seconds)
+// for a sequence lasting `duration` seconds, with the first and the last
+// instant at the same pose (loop) or at rest at the start (sweep and rotation
+// swing back). Poses are T_world_cam with the camera frame of camera.h
+// (x right, y down, z forward) and the world frame of scene.h (z up).
+//
+// Speeds are those of a hand-held Kinect: translation at most ~0.4 m/s and
+// angular speed at most 30 deg/s for every duration (paths scale with the
+// duration, and long sequences repeat laps or cycles instead of speeding up
+// or slowing to a crawl). The camera stays in the free middle of the room,
+// at least 0.5 m from every surface. Immutable; thread-safe.
+#pragma once
+
+#include <string>
+
+#include "common/geometry.h"
+#include "common/trajectory.h"
+
+namespace rrslam::synth {
+
+enum class TrajectoryKind {
+  // A closed loop around the middle of the room (an ellipse with semi-axes
+  // of up to 1.0 and 0.8 m, walked at 0.3 m/s). Sequences of at least 18 s per lap turn the camera
+  // once around (it looks outward along the radius and sees every wall, so
+  // returning to the start is a true loop closure); shorter ones keep looking
+  // east with the gaze swinging up to +-50 deg. Ends exactly where it began.
+  kLoop,
+  // A back-and-forth sweep: 1.8 m east and back (shorter for short sequences;
+  // several cycles for long ones), from rest to rest, looking north.
+  kSweep,
+  // A pure rotation in place: the camera centre never moves; it pans back and
+  // forth (up to +-75 deg of yaw) with small pitch and roll swings.
+  kRotation,
+};
+
+// "loop", "sweep", "rotation".
+std::string TrajectoryKindName(TrajectoryKind kind);
+// Parses a name of TrajectoryKindName; false when unknown.
+bool ParseTrajectoryKind(const std::string& name, TrajectoryKind* kind);
+
+class CameraPath {
+ public:
+  // `duration` in seconds (>= 0; 0 gives a single, static pose).
+  CameraPath(TrajectoryKind kind, double duration);
+
+  TrajectoryKind kind() const { return kind_; }
+  double duration() const { return duration_; }
+
+  // Camera pose at time t (seconds from the start). Defined for every t: the
+  // path is periodic with period `duration`, so exposure intervals around the
+  // first and last frames are well defined.
+  Rigid3d T_world_cam(double t) const;
+
+  // Camera pose from a centre and yaw (about world z, 0 = looking along +x),
+  // pitch (positive up) and roll (about the optical axis), radians.
+  static Rigid3d PoseFromAngles(const Eigen::Vector3d& centre_world, double yaw, double pitch,
+                                double roll);
+
+ private:
+  TrajectoryKind kind_;
+  double duration_;
+};
+
+// Samples a path at `frames` instants t_i = i / fps (i = 0 .. frames - 1) over
+// a duration of (frames - 1) / fps; timestamps are start_time + t_i.
+// Consecutive quaternions have a non-negative dot product (no sign flips).
+Trajectory MakeTrajectory(TrajectoryKind kind, int frames, double fps, double start_time = 0.0);
+
+}  // namespace rrslam::synth

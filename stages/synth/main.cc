@@ -1,0 +1,62 @@
+// rrslam-synth: renders a synthetic TUM-layout RGB-D sequence of a textured
+// room with exact ground truth. See docs/synth.md.
+#include "common/cli.h"
+#include "stages/synth/synth.h"
+
+namespace {
+
+void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
+  app.add_option("--out", o->out, "Output sequence folder (written atomically)")->required();
+  app.add_option_function<std::string>(
+         "--trajectory",
+         [o](const std::string& name) { rrslam::synth::ParseTrajectoryKind(name, &o->trajectory); },
+         "Camera path: loop (closed loop, ends at its start), sweep (there and back), rotation "
+         "(pan in place)")
+      ->check(CLI::IsMember({"loop", "sweep", "rotation"}))
+      ->default_str(rrslam::synth::TrajectoryKindName(o->trajectory));
+  app.add_option("--frames", o->frames, "Number of frames [1, 100000]")->capture_default_str();
+  app.add_option("--fps", o->fps, "Frame rate, Hz; frame i is at i / fps seconds")
+      ->capture_default_str();
+  app.add_option("--width", o->width, "Image width, pixels [16, 8192]")->capture_default_str();
+  app.add_option("--height", o->height, "Image height, pixels [16, 8192]")->capture_default_str();
+  app.add_option("--fx", o->fx, "Focal length x, pixels; 0 = 525 * width / 640")
+      ->capture_default_str();
+  app.add_option("--fy", o->fy, "Focal length y, pixels; 0 = 525 * height / 480")
+      ->capture_default_str();
+  app.add_option("--cx", o->cx, "Principal point x, pixels; 0 = 320 * width / 640 - 0.5")
+      ->capture_default_str();
+  app.add_option("--cy", o->cy, "Principal point y, pixels; 0 = 240 * height / 480 - 0.5")
+      ->capture_default_str();
+  app.add_option("--depth-noise", o->depth_noise,
+                 "Depth noise k, 1/m: sigma = k * z^2 metres (Kinect); 0 = exact [0, 0.05]")
+      ->capture_default_str();
+  app.add_option("--depth-holes", o->depth_holes,
+                 "Fraction of pixels without depth (edges, far range, grazing first) [0, 0.9]")
+      ->capture_default_str();
+  app.add_option("--brightness-change", o->brightness_change,
+                 "Amplitude of the exposure change: gain within 1 +- this [0, 0.9]")
+      ->capture_default_str();
+  app.add_option("--motion-blur", o->motion_blur,
+                 "Motion blur, pixels of image motion during the exposure [0, 64]")
+      ->capture_default_str();
+  app.add_option("--seed", o->seed, "Seed of textures, noise, holes and exposure")
+      ->capture_default_str();
+  app.add_option("--texel-size", o->texel_size,
+                 "Texture resolution, metres per texel [0.0005, 0.05]")
+      ->capture_default_str();
+  app.add_option("--threads", o->threads, "Worker threads; 0 = all cores (same output)")
+      ->capture_default_str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  rrslam::SynthOptions options;
+  return rrslam::RunTool(
+      argc, argv,
+      {"synth",
+       "Renders a TUM-layout RGB-D sequence of a textured room with exact ground truth "
+       "(rgb/, depth/, rgb.txt, depth.txt, associations.txt, groundtruth.txt, settings.yaml, "
+       "synth.json)."},
+      [&](CLI::App& app) { BindSynthOptions(app, &options); }, [&] { rrslam::RunSynth(options); });
+}

@@ -1,0 +1,156 @@
+// The synthetic indoor scene of rrslam-synth: textured planar rectangles
+// (the faces of a room and of the boxes in it) with ray casting and shading.
+//
+// World frame: metres, z up (gravity along -z). The standard room spans
+// x in [-3, 3], y in [-2.5, 2.5], z in [0, 3]; its middle (radius 1.55 m
+// around the z axis) is kept free for the camera paths of camera_path.h.
+//
+// Every surface is one-sided: it is visible only from the side its normal
+// points to. Boxes are closed and seen from outside, the room from inside, so
+// one-sided surfaces render exactly like two-sided ones for any camera inside
+// the room and outside the boxes. Immutable after construction; thread-safe.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "stages/synth/texture.h"
+
+namespace rrslam::synth {
+
+// A textured planar rectangle. A point with texture coordinates (a, b),
+// 0 <= a <= size_a, 0 <= b <= size_b (metres), is
+//   point_world = origin_world + a * axis_a_world + b * axis_b_world.
+// The visible side is the one `normal_world` = axis_b x axis_a points to:
+// seen from there, a points right and b down (like image columns and rows).
+struct Surface {
+  int id = 0;        // Index in Scene::surfaces().
+  std::string name;  // "room.floor", "table_top.+z", ...
+  Material material = Material::kWall;
+  Eigen::Vector3d origin_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis_a_world = Eigen::Vector3d::UnitX();   // Unit.
+  Eigen::Vector3d axis_b_world = Eigen::Vector3d::UnitY();   // Unit, orthogonal to axis_a.
+  Eigen::Vector3d normal_world = -Eigen::Vector3d::UnitZ();  // Unit, axis_b x axis_a.
+  double size_a = 1.0;                                       // Extent along axis_a, metres.
+  double size_b = 1.0;                                       // Extent along axis_b, metres.
+
+  // Signed distance of a point to the surface's plane, positive on the visible side.
+  double PlaneDistance(const Eigen::Vector3d& point_world) const {
+    return normal_world.dot(point_world - origin_world);
+  }
+  // Euclidean distance from a point to the rectangle (not just its plane).
+  double Distance(const Eigen::Vector3d& point_world) const;
+  Eigen::Vector3d Corner(int i) const;  // i in [0, 4): (0,0), (a,0), (a,b), (0,b).
+};
+
+// An oriented box: a room (seen from inside) or an object (seen from outside).
+struct Box {
+  std::string name;
+  Eigen::Vector3d centre_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d size = Eigen::Vector3d::Ones();  // Extents along its own x, y, z; metres.
+  double yaw = 0.0;                                // Rotation about the world z axis, radians.
+  bool inside = false;  // true: faces look inward (a room); false: outward (an object).
+  // Material of faces +x, -x, +y, -y, +z, -z (box frame).
+  std::array<Material, 6> materials{};
+  // Faces never visible (resting on the floor, against a wall), bit i = face i
+  // in the order above: they get no surface and no texture.
+  uint8_t hidden_faces = 0;
+
+  // A box with one material on every face.
+  static Box Object(std::string name, const Eigen::Vector3d& centre, const Eigen::Vector3d& size,
+                    Material material, double yaw = 0.0, uint8_t hidden_faces = 0);
+};
+
+// Face bits for Box::hidden_faces.
+enum BoxFace : uint8_t {
+  kFacePosX = 1,
+  kFaceNegX = 2,
+  kFacePosY = 4,
+  kFaceNegY = 8,
+  kFacePosZ = 16,
+  kFaceNegZ = 32,
+};
+
+// The first surface hit by a ray.
+struct RayHit {
+  double distance = 0;  // Along the ray, in units of the direction's length.
+  Eigen::Vector3d point_world = Eigen::Vector3d::Zero();
+  int surface_id = -1;
+  double a = 0, b = 0;  // Texture coordinates of the hit on the surface, metres.
+};
+
+// A point light of the scene's Lambertian shading.
+struct PointLight {
+  Eigen::Vector3d position_world;
+  double intensity;  // Irradiance factor at 1 m, facing the light.
+};
+
+struct SceneOptions {
+  uint64_t seed = 0;          // Seed of every texture (the geometry is fixed).
+  double texel_size = 0.003;  // Texture resolution, metres per texel (0.5 mm to 5 cm).
+  int num_threads = 1;        // Threads generating textures (>= 1); does not change the result.
+};
+
+class Scene {
+ public:
+  // Builds the surfaces of `boxes` and generates their textures (surface i's
+  // from options.seed and i only). Throws std::invalid_argument when
+  // options.texel_size is outside [0.0005, 0.05].
+  Scene(const std::vector<Box>& boxes, const SceneOptions& options);
+
+  // The standard furnished room of rrslam-synth (StandardRoomBoxes()).
+  static Scene StandardRoom(const SceneOptions& options);
+
+  const std::vector<Surface>& surfaces() const { return surfaces_; }
+  const Surface& surface(int id) const { return surfaces_.at(id); }
+  const MipTexture& texture(int surface_id) const { return textures_.at(surface_id); }
+  const std::vector<Box>& boxes() const { return boxes_; }
+  const std::vector<PointLight>& lights() const { return lights_; }
+  const SceneOptions& options() const { return options_; }
+
+  // First hit of the ray origin + t * direction with t > min_distance (direction
+  // need not be unit). Only visible sides are hit. nullopt if nothing is hit.
+  std::optional<RayHit> RayCast(const Eigen::Vector3d& origin_world,
+                                const Eigen::Vector3d& direction_world,
+                                double min_distance = 0.0) const;
+
+  // Distance from a point to the nearest surface (e.g. camera clearance).
+  double DistanceToNearestSurface(const Eigen::Vector3d& point_world) const;
+
+  // Lambertian irradiance factor (ambient + point lights) at a surface point
+  // with the given unit normal; about 0.5 to 1.1.
+  float Shading(const Eigen::Vector3d& point_world, const Eigen::Vector3d& normal_world) const;
+
+  // Albedo (B, G, R on the 0-255 scale) of surface `surface_id` at texture
+  // coordinates (a, b), filtered over a pixel footprint given by the
+  // derivatives of (a, b) with respect to image u and v (metres per pixel).
+  Eigen::Vector3f Albedo(int surface_id, float a, float b, float da_du, float db_du, float da_dv,
+                         float db_dv) const {
+    return textures_[surface_id].Sample(a, b, da_du, db_du, da_dv, db_dv);
+  }
+
+  // Bytes held by the textures.
+  size_t TextureBytes() const;
+
+ private:
+  std::vector<Box> boxes_;
+  std::vector<Surface> surfaces_;
+  std::vector<MipTexture> textures_;
+  std::vector<PointLight> lights_;
+  SceneOptions options_;
+};
+
+// The boxes of the standard room: the room itself (walls, floor, ceiling),
+// tables, cabinet, shelf, sofa, crates, a column, a lamp and wall posters.
+std::vector<Box> StandardRoomBoxes();
+
+// Free space of the standard room kept clear for cameras: no object comes
+// closer than this to the room's vertical axis (x = y = 0) below 2.5 m.
+inline constexpr double kStandardRoomFreeRadius = 1.55;
+
+}  // namespace rrslam::synth

@@ -1,0 +1,177 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include "common/errors.h"
+#include "common/testing.h"
+#include "stages/synth/synth.h"
+
+namespace rrslam {
+namespace {
+
+TEST(SynthOptions, DefaultsPassCheck) {
+  std::string why;
+  EXPECT_TRUE(SynthOptions().Check(&why)) << why;
+}
+
+TEST(SynthOptions, EachConstraintFails) {
+  struct Case {
+    std::string name;  // Expected at the start of the message.
+    std::function<void(SynthOptions&)> change;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Case> cases = {
+      {"frames", [](SynthOptions& o) { o.frames = 0; }},
+      {"frames", [](SynthOptions& o) { o.frames = 100001; }},
+      {"fps", [](SynthOptions& o) { o.fps = 0; }},
+      {"fps", [](SynthOptions& o) { o.fps = 1001; }},
+      {"fps", [nan](SynthOptions& o) { o.fps = nan; }},
+      {"width", [](SynthOptions& o) { o.width = 15; }},
+      {"width", [](SynthOptions& o) { o.width = 8193; }},
+      {"height", [](SynthOptions& o) { o.height = 15; }},
+      {"height", [](SynthOptions& o) { o.height = 8193; }},
+      {"fx", [](SynthOptions& o) { o.fx = 0.5; }},
+      {"fx", [](SynthOptions& o) { o.fx = -525; }},
+      {"fy", [](SynthOptions& o) { o.fy = 2e5; }},
+      {"cx", [](SynthOptions& o) { o.cx = -1; }},
+      {"cx", [](SynthOptions& o) { o.cx = 639.5; }},
+      {"cy", [](SynthOptions& o) { o.cy = 480; }},
+      {"cy", [nan](SynthOptions& o) { o.cy = nan; }},
+      {"depth_noise", [](SynthOptions& o) { o.depth_noise = -1e-3; }},
+      {"depth_noise", [](SynthOptions& o) { o.depth_noise = 0.06; }},
+      {"depth_holes", [](SynthOptions& o) { o.depth_holes = -0.1; }},
+      {"depth_holes", [](SynthOptions& o) { o.depth_holes = 0.95; }},
+      {"brightness_change", [](SynthOptions& o) { o.brightness_change = 1.0; }},
+      {"brightness_change", [](SynthOptions& o) { o.brightness_change = -0.1; }},
+      {"motion_blur", [](SynthOptions& o) { o.motion_blur = -1; }},
+      {"motion_blur", [](SynthOptions& o) { o.motion_blur = 65; }},
+      {"texel_size", [](SynthOptions& o) { o.texel_size = 0; }},
+      {"texel_size", [](SynthOptions& o) { o.texel_size = 0.1; }},
+      {"threads", [](SynthOptions& o) { o.threads = -1; }},
+      {"threads", [](SynthOptions& o) { o.threads = 257; }},
+  };
+  for (const Case& c : cases) {
+    SynthOptions options;
+    c.change(options);
+    std::string why;
+    EXPECT_FALSE(options.Check(&why)) << c.name;
+    EXPECT_EQ(why.rfind(c.name + " = ", 0), 0u) << "message: " << why;
+    EXPECT_NE(why.find("must be"), std::string::npos) << why;
+  }
+}
+
+TEST(SynthOptions, BoundaryValuesPass) {
+  SynthOptions o;
+  o.frames = 1;
+  o.width = 16;
+  o.height = 16;
+  o.cx = 15;
+  o.cy = 7.5;
+  o.fx = 1;
+  o.depth_noise = 0;
+  o.depth_holes = 0;
+  o.motion_blur = 64;
+  o.brightness_change = 0.9;
+  o.threads = 256;
+  std::string why;
+  EXPECT_TRUE(o.Check(&why)) << why;
+}
+
+TEST(SynthOptions, DefaultIntrinsicsScaleWithImageSize) {
+  SynthOptions o;
+  PinholeCamera camera = o.Camera();
+  EXPECT_DOUBLE_EQ(camera.fx(), 525.0);
+  EXPECT_DOUBLE_EQ(camera.fy(), 525.0);
+  EXPECT_DOUBLE_EQ(camera.cx(), 319.5);
+  EXPECT_DOUBLE_EQ(camera.cy(), 239.5);
+  EXPECT_EQ(camera.width(), 640);
+  EXPECT_EQ(camera.height(), 480);
+  EXPECT_TRUE(camera.distortion().IsZero());
+
+  // Half the size: the same field of view, pixel centres kept aligned.
+  o.width = 320;
+  o.height = 240;
+  camera = o.Camera();
+  EXPECT_DOUBLE_EQ(camera.fx(), 262.5);
+  EXPECT_DOUBLE_EQ(camera.fy(), 262.5);
+  EXPECT_DOUBLE_EQ(camera.cx(), 159.5);
+  EXPECT_DOUBLE_EQ(camera.cy(), 119.5);
+
+  // Given values are kept.
+  o.fx = 500;
+  o.cy = 100;
+  camera = o.Camera();
+  EXPECT_DOUBLE_EQ(camera.fx(), 500.0);
+  EXPECT_DOUBLE_EQ(camera.fy(), 262.5);
+  EXPECT_DOUBLE_EQ(camera.cy(), 100.0);
+}
+
+TEST(SynthOptions, SettingsMatchTheRendering) {
+  SynthOptions o;
+  Settings s = o.MakeSettings();
+  std::string why;
+  EXPECT_TRUE(s.Check(&why)) << why;
+  EXPECT_DOUBLE_EQ(s.fx, 525.0);
+  EXPECT_DOUBLE_EQ(s.cy, 239.5);
+  EXPECT_EQ(s.width, 640);
+  EXPECT_EQ(s.height, 480);
+  EXPECT_DOUBLE_EQ(s.bf, 40.0);
+  EXPECT_DOUBLE_EQ(s.th_depth, 40.0);
+  EXPECT_DOUBLE_EQ(s.depth_map_factor, 5000.0);
+  EXPECT_DOUBLE_EQ(s.fps, 30.0);
+  EXPECT_TRUE(s.distortion.IsZero());
+  EXPECT_EQ(s.orb.n_features, 1000);
+  EXPECT_EQ(s.orb.n_levels, 8);
+  EXPECT_DOUBLE_EQ(s.orb.scale_factor, 1.2);
+  EXPECT_EQ(s.orb.ini_th_fast, 20);
+  EXPECT_EQ(s.orb.min_th_fast, 7);
+
+  // The virtual baseline (bf / fx) does not change with the image size.
+  o.width = 320;
+  o.height = 240;
+  s = o.MakeSettings();
+  EXPECT_NEAR(s.Baseline(), 40.0 / 525.0, 1e-12);
+  EXPECT_NEAR(s.ThDepthMetres(), 40.0 * 40.0 / 525.0, 1e-12);
+}
+
+TEST(SynthOptions, JsonRecordsResolvedOptions) {
+  SynthOptions o;
+  o.seed = 7;
+  o.trajectory = synth::TrajectoryKind::kSweep;
+  const std::string json = o.ToJson();
+  EXPECT_NE(json.find("\"trajectory\":\"sweep\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"seed\":7"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"fx\":525.0"), std::string::npos) << json;
+  EXPECT_EQ(json.find("threads"), std::string::npos) << "threads do not change the output";
+}
+
+TEST(SynthOptions, RunSynthRejectsBadOptionsAndWritesNothing) {
+  testing::TempDir dir;
+  SynthOptions o;
+  o.out = dir / "seq";
+  o.frames = 0;
+  EXPECT_THROW(RunSynth(o), UsageError);
+  o.frames = 3;
+  o.out.clear();
+  EXPECT_THROW(RunSynth(o), UsageError);
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+  // The in-memory sequence checks its options too.
+  o.width = 4;
+  EXPECT_THROW(SyntheticSequence sequence(o), UsageError);
+}
+
+TEST(SynthOptions, TrajectoryNamesRoundTrip) {
+  for (auto kind : {synth::TrajectoryKind::kLoop, synth::TrajectoryKind::kSweep,
+                    synth::TrajectoryKind::kRotation}) {
+    synth::TrajectoryKind parsed = synth::TrajectoryKind::kLoop;
+    ASSERT_TRUE(synth::ParseTrajectoryKind(synth::TrajectoryKindName(kind), &parsed));
+    EXPECT_EQ(parsed, kind);
+  }
+  synth::TrajectoryKind parsed;
+  EXPECT_FALSE(synth::ParseTrajectoryKind("circle", &parsed));
+}
+
+}  // namespace
+}  // namespace rrslam

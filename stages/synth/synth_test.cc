@@ -1,0 +1,364 @@
+#include "stages/synth/synth.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "common/atomic_file.h"
+#include "common/cli.h"
+#include "common/dataset.h"
+#include "common/errors.h"
+#include "common/settings.h"
+#include "common/testing.h"
+#include "stages/synth/scene.h"
+
+namespace rrslam {
+namespace {
+namespace fs = std::filesystem;
+
+// A small, fast sequence: 160 x 120, coarse textures.
+SynthOptions SmallOptions(const fs::path& out) {
+  SynthOptions o;
+  o.out = out;
+  o.frames = 5;
+  o.width = 160;
+  o.height = 120;
+  o.texel_size = 0.008;
+  o.threads = 2;
+  return o;
+}
+
+std::vector<std::string> Lines(const fs::path& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+// Every file below `dir`, relative path -> content.
+std::map<std::string, std::string> Contents(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file()) {
+      files[fs::relative(entry.path(), dir).string()] = ReadFileToString(entry.path());
+    }
+  }
+  return files;
+}
+
+TEST(RunSynth, WritesATumSequenceThatTheReadersAccept) {
+  testing::TempDir dir;
+  SynthOptions o = SmallOptions(dir / "seq");
+  o.trajectory = synth::TrajectoryKind::kSweep;
+  RunSynth(o);
+  EXPECT_FALSE(fs::exists(dir / "seq.tmp"));
+
+  // Lists: three '#' header lines, then `timestamp path`.
+  const auto rgb = Lines(dir / "seq" / "rgb.txt");
+  ASSERT_EQ(rgb.size(), 3u + 5u);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(rgb[i][0], '#');
+  EXPECT_EQ(rgb[3], "0.000000 rgb/0.000000.png");
+  EXPECT_EQ(rgb[4], "0.033333 rgb/0.033333.png");
+  EXPECT_EQ(Lines(dir / "seq" / "depth.txt")[4], "0.033333 depth/0.033333.png");
+  const auto associations = Lines(dir / "seq" / "associations.txt");
+  ASSERT_EQ(associations.size(), 5u);
+  EXPECT_EQ(associations[1], "0.033333 rgb/0.033333.png 0.033333 depth/0.033333.png");
+
+  // The sequence reader pairs all frames and loads the images.
+  const RgbdSequence sequence = RgbdSequence::Open(dir / "seq");
+  ASSERT_EQ(sequence.size(), 5u);
+  const cv::Mat color = sequence.LoadColor(2);
+  EXPECT_EQ(color.size(), cv::Size(160, 120));
+  EXPECT_EQ(color.type(), CV_8UC3);
+  const cv::Mat depth = sequence.LoadDepthRaw(2);
+  EXPECT_EQ(depth.type(), CV_16UC1);
+  EXPECT_EQ(depth.size(), cv::Size(160, 120));
+  const cv::Mat metres = sequence.LoadDepthMetres(2, 5000.0);
+  double min_depth, max_depth;
+  cv::minMaxLoc(metres, &min_depth, &max_depth, nullptr, nullptr, metres > 0);
+  EXPECT_GT(min_depth, 0.5);
+  EXPECT_LT(max_depth, 8.5);
+  const double valid = static_cast<double>(cv::countNonZero(metres > 0)) / metres.total();
+  EXPECT_GT(valid, 0.9);
+  EXPECT_LT(valid, 1.0);  // Default holes.
+
+  // Ground truth at the frame timestamps, equal to the in-memory sequence.
+  ASSERT_TRUE(sequence.groundtruth().has_value());
+  const Trajectory& gt = *sequence.groundtruth();
+  ASSERT_EQ(gt.size(), 5u);
+  const Trajectory expected = synth::MakeTrajectory(o.trajectory, 5, 30.0);
+  for (size_t i = 0; i < gt.size(); ++i) {
+    EXPECT_DOUBLE_EQ(gt[i].timestamp, sequence.frame(i).rgb_timestamp);
+    EXPECT_LT((gt[i].T_world_cam.translation - expected[i].T_world_cam.translation).norm(), 1e-8);
+    EXPECT_LT(RotationAngle(gt[i].T_world_cam.rotation, expected[i].T_world_cam.rotation), 1e-8);
+  }
+
+  // Settings match the rendering camera.
+  const Settings settings = ReadSettings(dir / "seq" / "settings.yaml");
+  EXPECT_DOUBLE_EQ(settings.fx, 131.25);
+  EXPECT_DOUBLE_EQ(settings.cx, 79.5);
+  EXPECT_EQ(settings.width, 160);
+  EXPECT_DOUBLE_EQ(settings.depth_map_factor, 5000.0);
+  EXPECT_NEAR(settings.Baseline(), 40.0 / 525.0, 1e-9);
+
+  // The sidecar records producer and options.
+  const auto info = nlohmann::json::parse(ReadFileToString(dir / "seq" / "synth.json"));
+  EXPECT_EQ(info["producer"], Producer("synth"));
+  EXPECT_EQ(info["options"]["trajectory"], "sweep");
+  EXPECT_EQ(info["options"]["frames"], 5);
+  EXPECT_EQ(info["options"]["seed"], 0);
+  EXPECT_DOUBLE_EQ(info["options"]["depth_noise"].get<double>(), 1.425e-3);
+}
+
+TEST(RunSynth, NoiseFreeDepthReprojectsToTheSceneWithinAMillimetre) {
+  testing::TempDir dir;
+  SynthOptions o = SmallOptions(dir / "seq");
+  o.depth_noise = 0;
+  o.depth_holes = 0;
+  o.frames = 3;
+  RunSynth(o);
+  const RgbdSequence sequence = RgbdSequence::Open(dir / "seq");
+  const SyntheticSequence in_memory(o);  // Same scene geometry for ray casting.
+  // The camera as a SLAM system would see it: from the written settings.
+  const PinholeCamera camera = ReadSettings(dir / "seq" / "settings.yaml").Camera();
+  for (size_t i = 0; i < sequence.size(); ++i) {
+    const cv::Mat metres = sequence.LoadDepthMetres(i, 5000.0);
+    const Rigid3d& T_world_cam = (*sequence.groundtruth())[i].T_world_cam;
+    // 16-bit depth in steps of 0.2 mm: at most 0.1 mm along z, a little more
+    // along oblique rays. Worst distances to the ray-cast point and to the
+    // plane of the surface hit:
+    double worst_point = 0, worst_plane = 0;
+    for (int v = 0; v < metres.rows; ++v) {
+      for (int u = 0; u < metres.cols; ++u) {
+        const double z = metres.at<float>(v, u);
+        ASSERT_GT(z, 0.0);
+        const Eigen::Vector3d point_world =
+            T_world_cam * camera.Unproject(Eigen::Vector2d(u, v), z);
+        const auto hit = in_memory.scene().RayCast(
+            T_world_cam.translation,
+            T_world_cam.rotation * camera.Unproject(Eigen::Vector2d(u, v), 1.0));
+        ASSERT_TRUE(hit.has_value());
+        worst_point = std::max(worst_point, (point_world - hit->point_world).norm());
+        worst_plane = std::max(
+            worst_plane,
+            std::fabs(in_memory.scene().surface(hit->surface_id).PlaneDistance(point_world)));
+      }
+    }
+    EXPECT_LT(worst_point, 1e-3) << "frame " << i;
+    EXPECT_LT(worst_plane, 1e-3) << "frame " << i;
+  }
+}
+
+// The images, depth, intrinsics and ground truth agree to a fraction of a
+// pixel: warping a later frame into the first one through the first frame's
+// depth and the ground-truth relative pose (all read back from the written
+// files) matches the first frame better than the same warp shifted by a
+// quarter pixel in any direction.
+TEST(RunSynth, GroundTruthAlignsTheImagesToSubpixelAccuracy) {
+  testing::TempDir dir;
+  SynthOptions o = SmallOptions(dir / "seq");
+  o.width = 320;
+  o.height = 240;
+  o.frames = 30;
+  o.texel_size = 0.004;
+  o.depth_noise = 0;
+  o.depth_holes = 0;
+  for (auto [kind, j] : {std::pair{synth::TrajectoryKind::kLoop, 15},
+                         std::pair{synth::TrajectoryKind::kRotation, 7}}) {
+    o.trajectory = kind;
+    RunSynth(o);
+    const RgbdSequence sequence = RgbdSequence::Open(dir / "seq");
+    const Settings settings = ReadSettings(dir / "seq" / "settings.yaml");
+    const PinholeCamera camera = settings.Camera();
+    cv::Mat gray0, gray_j;
+    sequence.LoadGray(0).convertTo(gray0, CV_32F);
+    sequence.LoadGray(j).convertTo(gray_j, CV_32F);
+    const cv::Mat depth0 = sequence.LoadDepthMetres(0, settings.depth_map_factor);
+    const Trajectory& gt = *sequence.groundtruth();
+    const Rigid3d T_j_0 = gt[j].T_world_cam.Inverse() * gt[0].T_world_cam;
+    ASSERT_GT(RotationAngle(T_j_0.rotation, Eigen::Quaterniond::Identity()), 0.01);  // Moved.
+    cv::Mat map_u(o.height, o.width, CV_32F), map_v(o.height, o.width, CV_32F);
+    for (int v = 0; v < o.height; ++v) {
+      for (int u = 0; u < o.width; ++u) {
+        const Eigen::Vector2d p =
+            camera.Project(T_j_0 * camera.Unproject(Eigen::Vector2d(u, v), depth0.at<float>(v, u)));
+        map_u.at<float>(v, u) = static_cast<float>(p.x());
+        map_v.at<float>(v, u) = static_cast<float>(p.y());
+      }
+    }
+    auto warp_error = [&](float du, float dv) {
+      cv::Mat warped;
+      cv::remap(gray_j, warped, map_u + du, map_v + dv, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                cv::Scalar(-1));
+      const cv::Mat valid = warped >= 0;
+      return cv::mean(cv::abs(warped - gray0), valid)[0];
+    };
+    const double aligned = warp_error(0, 0);
+    for (auto [du, dv] : {std::pair{0.25f, 0.0f}, std::pair{-0.25f, 0.0f}, std::pair{0.0f, 0.25f},
+                          std::pair{0.0f, -0.25f}}) {
+      EXPECT_LT(aligned * 1.1, warp_error(du, dv))
+          << synth::TrajectoryKindName(kind) << " shift " << du << ", " << dv;
+    }
+  }
+}
+
+TEST(RunSynth, SameOptionsGiveByteIdenticalFilesWhateverTheThreads) {
+  testing::TempDir dir;
+  SynthOptions o = SmallOptions(dir / "a");
+  o.brightness_change = 0.2;
+  o.motion_blur = 2;
+  RunSynth(o);
+  o.out = dir / "b";
+  o.threads = 1;
+  RunSynth(o);
+  const auto a = Contents(dir / "a"), b = Contents(dir / "b");
+  ASSERT_EQ(a.size(), 2u * 5u + 6u);
+  EXPECT_TRUE(a == b);
+
+  // Another seed: every image differs (textures, noise and holes), while the
+  // ground truth stays the same.
+  o.out = dir / "c";
+  o.seed = 1;
+  RunSynth(o);
+  const auto c = Contents(dir / "c");
+  for (const auto& [name, content] : a) {
+    if (name.rfind("rgb/", 0) == 0 || name.rfind("depth/", 0) == 0) {
+      EXPECT_NE(content, c.at(name)) << name;
+    }
+  }
+  EXPECT_EQ(a.at("groundtruth.txt"), c.at("groundtruth.txt"));
+  EXPECT_NE(a.at("synth.json"), c.at("synth.json"));
+}
+
+TEST(RunSynth, SequenceRendersTheFramesItWrites) {
+  testing::TempDir dir;
+  const SynthOptions o = SmallOptions(dir / "seq");
+  RunSynth(o);
+  const SyntheticSequence sequence(o);
+  ASSERT_EQ(sequence.size(), 5u);
+  const SynthFrame frame = sequence.Render(3);
+  const RgbdSequence written = RgbdSequence::Open(dir / "seq");
+  EXPECT_EQ(cv::norm(frame.color, written.LoadColor(3), cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(frame.depth, written.LoadDepthRaw(3), cv::NORM_INF), 0.0);
+  EXPECT_EQ(FormatTimestamp(frame.timestamp), "0.100000");
+}
+
+TEST(RunSynth, BrightnessChangeScalesTheImages) {
+  SynthOptions o = SmallOptions("");
+  o.frames = 30;
+  const SyntheticSequence steady(o);
+  o.brightness_change = 0.4;
+  const SyntheticSequence changing(o);
+  double lowest = 10, highest = 0;
+  for (size_t i : {0, 5, 10, 15, 20, 25}) {
+    const double ratio =
+        cv::mean(changing.Render(i).color)[1] / cv::mean(steady.Render(i).color)[1];
+    lowest = std::min(lowest, ratio);
+    highest = std::max(highest, ratio);
+  }
+  EXPECT_GT(highest - lowest, 0.2);
+  EXPECT_GT(lowest, 0.55);
+  EXPECT_LT(highest, 1.45);
+}
+
+TEST(RunSynth, MotionBlurSoftensMovingFrames) {
+  SynthOptions o = SmallOptions("");
+  o.frames = 60;
+  o.trajectory = synth::TrajectoryKind::kRotation;
+  const SyntheticSequence sharp(o);
+  o.motion_blur = 6;
+  const SyntheticSequence blurred(o);
+  auto gradient_energy = [](const cv::Mat& color) {
+    cv::Mat gray, dx;
+    cv::cvtColor(color, gray, cv::COLOR_BGR2GRAY);
+    cv::Sobel(gray, dx, CV_32F, 1, 0);
+    return cv::norm(dx, cv::NORM_L2SQR);
+  };
+  // The pan is fastest mid-sequence (about 2 px per frame here).
+  EXPECT_LT(gradient_energy(blurred.Render(30).color),
+            0.8 * gradient_energy(sharp.Render(30).color));
+  // Depth and ground truth are those of the frame's timestamp either way.
+  EXPECT_EQ(cv::norm(blurred.Render(30).depth, sharp.Render(30).depth, cv::NORM_INF), 0.0);
+}
+
+TEST(RunSynth, ReplacesAnExistingSequenceOnlyWhenDone) {
+  testing::TempDir dir;
+  SynthOptions o = SmallOptions(dir / "seq");
+  o.frames = 2;
+  RunSynth(o);
+  const auto before = Contents(dir / "seq");
+  o.frames = 0;  // Invalid: the old folder stays as it was.
+  EXPECT_THROW(RunSynth(o), UsageError);
+  EXPECT_TRUE(Contents(dir / "seq") == before);
+  o.frames = 3;
+  RunSynth(o);
+  EXPECT_EQ(Contents(dir / "seq").size(), 2u * 3u + 6u);
+  EXPECT_FALSE(fs::exists(dir / "seq.tmp"));
+  EXPECT_FALSE(fs::exists(dir / "seq.old.tmp"));
+}
+
+// The executable: exit codes and what it leaves behind.
+class SynthTool : public ::testing::Test {
+ protected:
+  testing::TempDir dir_;
+  const std::string small_ = " --width 96 --height 72 --frames 3 --texel-size 0.01 -q";
+};
+
+TEST_F(SynthTool, WritesASequence) {
+  const auto result = testing::RunTool(
+      "synth", "--out " + (dir_ / "seq").string() + small_ + " --trajectory rotation --seed 3");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_TRUE(fs::exists(dir_ / "seq" / "groundtruth.txt"));
+  EXPECT_EQ(RgbdSequence::Open(dir_ / "seq").size(), 3u);
+}
+
+TEST_F(SynthTool, BadOptionsExit64AndWriteNothing) {
+  for (const std::string args : {" --frames 0", " --trajectory circle", " --depth-holes 2",
+                                 " --width abc", " --no-such-flag"}) {
+    const auto result =
+        testing::RunTool("synth", "--out " + (dir_ / "seq").string() + small_ + args);
+    EXPECT_EQ(result.exit_code, 64) << args << "\n" << result.output;
+    EXPECT_FALSE(result.output.empty());
+  }
+  // --out is required.
+  EXPECT_EQ(testing::RunTool("synth", small_).exit_code, 64);
+  EXPECT_TRUE(fs::is_empty(dir_.path()));
+}
+
+TEST_F(SynthTool, UnwritableOutputExits73AndLeavesNothing) {
+  // The parent folder does not exist.
+  auto result = testing::RunTool("synth", "--out " + (dir_ / "missing" / "seq").string() + small_);
+  EXPECT_EQ(result.exit_code, 73) << result.output;
+  EXPECT_NE(result.output.find("missing"), std::string::npos) << result.output;
+  // The parent is a file.
+  testing::WriteTextFile(dir_ / "file", "x");
+  result = testing::RunTool("synth", "--out " + (dir_ / "file" / "seq").string() + small_);
+  EXPECT_EQ(result.exit_code, 73) << result.output;
+  // The output path is an existing file: kept as it was.
+  result = testing::RunTool("synth", "--out " + (dir_ / "file").string() + small_);
+  EXPECT_EQ(result.exit_code, 73) << result.output;
+  EXPECT_EQ(ReadFileToString(dir_ / "file"), "x");
+  std::vector<std::string> left;
+  for (const auto& entry : fs::directory_iterator(dir_.path()))
+    left.push_back(entry.path().filename());
+  EXPECT_EQ(left, std::vector<std::string>{"file"});
+}
+
+TEST_F(SynthTool, HelpListsEveryFlagWithItsDefault) {
+  const auto result = testing::RunTool("synth", "--help");
+  ASSERT_EQ(result.exit_code, 0);
+  for (const char* flag :
+       {"--out", "--trajectory", "--frames", "--fps", "--width", "--height", "--fx", "--fy", "--cx",
+        "--cy", "--depth-noise", "--depth-holes", "--brightness-change", "--motion-blur", "--seed",
+        "--texel-size", "--threads", "Exit codes"}) {
+    EXPECT_NE(result.output.find(flag), std::string::npos) << flag;
+  }
+  EXPECT_NE(result.output.find("300"), std::string::npos);
+  EXPECT_NE(result.output.find("0.001425"), std::string::npos);
+  EXPECT_NE(result.output.find("loop"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rrslam
