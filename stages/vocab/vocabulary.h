@@ -24,7 +24,14 @@ using NodeId = uint32_t;   // Index of a tree node; the root is 0.
 using WordValue = double;  // Weight of a word in a BoW vector.
 
 enum class WeightingType { kTfIdf = 0, kTf = 1, kIdf = 2, kBinary = 3 };
-enum class ScoringType { kL1 = 0, kL2 = 1, kChiSquare = 2, kKL = 3, kBhattacharyya = 4, kDotProduct = 5 };
+enum class ScoringType {
+  kL1 = 0,
+  kL2 = 1,
+  kChiSquare = 2,
+  kKL = 3,
+  kBhattacharyya = 4,
+  kDotProduct = 5
+};
 
 // Sparse BoW vector: (word, value) pairs sorted by word id, each word once.
 // Normalized as the vocabulary's scoring requires (L1 norm 1 for L1 scoring).
@@ -43,12 +50,23 @@ struct FeatureVector {
   size_t size() const { return entries.size(); }
 };
 
+struct VocabularyData;  // vocabulary_format.h
+struct VocabularyView;  // vocabulary_format.h
+
 class Vocabulary {
  public:
   // Loads a binary (.rrv) or DBoW2 text vocabulary, told by content. Throws
   // NoInputError when missing and DataError when malformed, truncated,
   // corrupt or of an unsupported format version; errors name the file.
   static Vocabulary Load(const std::filesystem::path& path);
+
+  // Loads a binary or text vocabulary held in memory (copied), told by
+  // content; `name` stands for the file in errors and Identity().
+  static Vocabulary FromBytes(std::span<const uint8_t> bytes, const std::string& name);
+
+  // Takes ownership of arrays built in memory (`vocab build`), after the
+  // same checks as a loaded file (ValidateVocabularyLinks).
+  static Vocabulary FromData(VocabularyData data, const std::string& name);
 
   Vocabulary();
   ~Vocabulary();
@@ -67,12 +85,31 @@ class Vocabulary {
   // in outputs that used it (run.json).
   std::string Identity() const;
 
+  // True when loaded from the binary format, false for DBoW2 text or built
+  // in memory.
+  bool is_binary() const;
+  // XXH3-64 of the binary payload, or of the whole text file.
+  uint64_t checksum() const;
+  // The node arrays (vocabulary_format.h), e.g. to write the vocabulary in
+  // the other format. Valid as long as this object.
+  const VocabularyView& view() const;
+
   // Word of one descriptor (descends the tree, nearest child by Hamming distance).
   WordId Transform(const OrbDescriptor& descriptor) const;
 
   // BoW vector of a set of descriptors (weights per the vocabulary's weighting,
   // normalized per its scoring) and, when `features` is non-null, the feature
   // vector grouped `levels_up` levels above the leaves.
+  // As DBoW2: the group of a descriptor is the node at level L - levels_up on
+  // its path from the root, or its word when the word is shallower, or the
+  // root when L - levels_up <= 0. Descriptors whose word has weight 0 (with
+  // idf weights: a word of no or of every training image) appear in neither
+  // vector. With tf or tf-idf
+  // weighting a word's value is the sum over its descriptors; with idf or
+  // binary it is counted once. Vectors are L1-normalized for the l1,
+  // chi-square, KL and Bhattacharyya scorings, L2-normalized for l2; with
+  // dot-product scoring tf / tf-idf values are divided by the number of
+  // distinct words (DBoW2's behaviour).
   void Transform(std::span<const OrbDescriptor> descriptors, BowVector* bow,
                  FeatureVector* features = nullptr, int levels_up = 4) const;
 
@@ -82,6 +119,7 @@ class Vocabulary {
 
  private:
   struct Impl;
+  const Impl& impl() const;  // An empty vocabulary's after a move.
   std::unique_ptr<Impl> impl_;
 };
 

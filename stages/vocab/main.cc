@@ -1,0 +1,18 @@
+// rrslam-vocab: builds, converts, inspects and queries bag-of-words vocabularies.
+#include "common/cli.h"
+#include "stages/vocab/vocab_tool.h"
+
+int main(int argc, char** argv) {
+  rrslam::VocabCommands commands;
+  return rrslam::RunTool(
+      argc, argv,
+      {"vocab",
+       "Bag-of-words vocabularies of ORB descriptors. Commands:\n"
+       "  build    weighted vocabulary from a tree (rrslam-cluster) and training features\n"
+       "  convert  binary (.rrv) <-> DBoW2 text (.txt, ORB-SLAM2's ORBvoc.txt format)\n"
+       "  info     k, L, weighting, scoring, nodes, words, size, version, checksum state\n"
+       "  query    BoW vectors of frames of a features file, and their scores\n"
+       "Run `rrslam-vocab <command> --help` for a command's flags."},
+      [&](CLI::App& app) { rrslam::BindVocabCommands(app, &commands); },
+      [&] { rrslam::RunVocabCommand(commands); });
+}
