@@ -83,7 +83,7 @@ void WriteVocabTree(const std::filesystem::path& path, const VocabTree& tree,
       // Stored uncompressed: centres are nearly random bits (deflate saves
       // little and costs more than the clustering of the last level).
       const hsize_t n = tree.num_nodes();
-      H5::Group nodes = file.createGroup("nodes");
+      H5::Group nodes = CreateH5Group(file, "nodes");
       WriteH5Array<int32_t>(nodes, "parent", tree.parent, {n});
       WriteH5Array<uint8_t>(nodes, "level", tree.level, {n});
       WriteH5Array(nodes, "centre", tree.centre.data(), H5::PredType::NATIVE_UINT8, {n, 32}, 0);

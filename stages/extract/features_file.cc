@@ -28,7 +28,7 @@ void WriteFeaturesFile(const std::filesystem::path& path, const FeaturesFile& fe
       WriteH5StringAttribute(file, "settings", features.settings_yaml);
       const size_t F = features.frames.size();
       const size_t N = features.keypoints.size();
-      H5::Group frames = file.createGroup("frames");
+      H5::Group frames = CreateH5Group(file, "frames");
       std::vector<double> rgb_ts(F), depth_ts(F);
       std::vector<std::string> rgb_paths(F), depth_paths(F);
       std::vector<uint64_t> offsets(F + 1, 0);
@@ -47,7 +47,7 @@ void WriteFeaturesFile(const std::filesystem::path& path, const FeaturesFile& fe
       WriteH5StringArray(frames, "depth_path", depth_paths);
       WriteH5Array<uint64_t>(frames, "keypoint_offset", offsets, {F + 1});
 
-      H5::Group kps = file.createGroup("keypoints");
+      H5::Group kps = CreateH5Group(file, "keypoints");
       std::vector<float> pixel(2 * N), undistorted(2 * N), angle(N), response(N), depth(N);
       std::vector<uint8_t> octave(N);
       for (size_t i = 0; i < N; ++i) {
@@ -135,7 +135,9 @@ FeaturesFile ReadFeaturesFile(const std::filesystem::path& path) {
   OpenedFeatures o = OpenFeatures(path);
   FeaturesFile out;
   out.format = o.info;
-  if (o.file.attrExists("settings")) out.settings_yaml = ReadH5StringAttribute(o.file, "settings", name);
+  if (o.file.attrExists("settings")) {
+    out.settings_yaml = ReadH5StringAttribute(o.file, "settings", name);
+  }
   const size_t F = o.offsets.size() - 1;
   const size_t N = o.num_keypoints;
   H5::Group frames = o.file.openGroup("frames");
@@ -148,8 +150,8 @@ FeaturesFile ReadFeaturesFile(const std::filesystem::path& path) {
   }
   out.frames.resize(F);
   for (size_t f = 0; f < F; ++f) {
-    out.frames[f] = {rgb_ts[f], depth_ts[f], rgb_paths[f], depth_paths[f], o.offsets[f],
-                     o.offsets[f + 1]};
+    out.frames[f] = {rgb_ts[f],      depth_ts[f],  rgb_paths[f],
+                     depth_paths[f], o.offsets[f], o.offsets[f + 1]};
   }
   H5::Group kps = o.file.openGroup("keypoints");
   const auto pixel = ReadColumn<float>(kps, "pixel", N, 2, name);
@@ -169,7 +171,8 @@ FeaturesFile ReadFeaturesFile(const std::filesystem::path& path) {
     k.depth = depth[i];
   }
   out.descriptors.resize(N);
-  if (N > 0) ReadH5Array(kps, "descriptor", out.descriptors.data(), H5::PredType::NATIVE_UINT8, name);
+  if (N > 0)
+    ReadH5Array(kps, "descriptor", out.descriptors.data(), H5::PredType::NATIVE_UINT8, name);
   return out;
 }
 
