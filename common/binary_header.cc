@@ -14,21 +14,9 @@
 namespace rrslam {
 namespace {
 
-template <typename T>
-T Load(const uint8_t* p) {
-  T value;
-  std::memcpy(&value, p, sizeof(T));
-  return value;
-}
-
-template <typename T>
-void Store(uint8_t* p, T value) {
-  std::memcpy(p, &value, sizeof(T));
-}
-
 uint64_t HeaderChecksum(std::span<const uint8_t> header) {
   std::vector<uint8_t> copy(header.begin(), header.end());
-  Store<uint64_t>(copy.data() + 32, 0);
+  StoreLittleEndian<uint64_t>(copy.data() + 32, 0);
   return Checksum64(copy);
 }
 
@@ -47,13 +35,13 @@ std::vector<uint8_t> BuildBinaryHeader(const FormatSpec& spec, std::span<const u
   const size_t padded = (fields.size() + 7) / 8 * 8;
   std::vector<uint8_t> header(kBaseHeaderSize + padded, 0);
   std::memcpy(header.data(), spec.magic, 8);
-  Store<uint16_t>(header.data() + 8, spec.major);
-  Store<uint16_t>(header.data() + 10, spec.minor);
-  Store<uint32_t>(header.data() + 12, static_cast<uint32_t>(header.size()));
-  Store<uint64_t>(header.data() + 16, payload.size());
-  Store<uint64_t>(header.data() + 24, Checksum64(payload));
+  StoreLittleEndian<uint16_t>(header.data() + 8, spec.major);
+  StoreLittleEndian<uint16_t>(header.data() + 10, spec.minor);
+  StoreLittleEndian<uint32_t>(header.data() + 12, static_cast<uint32_t>(header.size()));
+  StoreLittleEndian<uint64_t>(header.data() + 16, payload.size());
+  StoreLittleEndian<uint64_t>(header.data() + 24, Checksum64(payload));
   if (!fields.empty()) std::memcpy(header.data() + kBaseHeaderSize, fields.data(), fields.size());
-  Store<uint64_t>(header.data() + 32, HeaderChecksum(header));
+  StoreLittleEndian<uint64_t>(header.data() + 32, HeaderChecksum(header));
   return header;
 }
 
@@ -65,15 +53,15 @@ BinaryHeaderView ParseBinaryHeader(std::span<const uint8_t> file, const FormatSp
   }
   if (!HasMagic(file, spec)) throw DataError(path + ": not a " + std::string(spec.name) + " file (bad magic)");
   BinaryHeaderView view;
-  view.major = Load<uint16_t>(file.data() + 8);
-  view.minor = Load<uint16_t>(file.data() + 10);
+  view.major = LoadLittleEndian<uint16_t>(file.data() + 8);
+  view.minor = LoadLittleEndian<uint16_t>(file.data() + 10);
   if (view.major != spec.major) {
     throw DataError(path + ": " + spec.name + " format version " + std::to_string(view.major) +
                     "." + std::to_string(view.minor) + " is not supported (this build reads " +
                     std::to_string(spec.major) + ".x)");
   }
-  const uint32_t header_size = Load<uint32_t>(file.data() + 12);
-  const uint64_t payload_size = Load<uint64_t>(file.data() + 16);
+  const uint32_t header_size = LoadLittleEndian<uint32_t>(file.data() + 12);
+  const uint64_t payload_size = LoadLittleEndian<uint64_t>(file.data() + 16);
   if (header_size < kBaseHeaderSize) {
     throw DataError(path + ": corrupt header (header size " + std::to_string(header_size) + ")");
   }
@@ -81,7 +69,7 @@ BinaryHeaderView ParseBinaryHeader(std::span<const uint8_t> file, const FormatSp
     throw DataError(path + ": truncated: " + std::to_string(file.size()) +
                     " bytes, shorter than its " + std::to_string(header_size) + "-byte header");
   }
-  if (Load<uint64_t>(file.data() + 32) != HeaderChecksum(file.first(header_size))) {
+  if (LoadLittleEndian<uint64_t>(file.data() + 32) != HeaderChecksum(file.first(header_size))) {
     throw DataError(path + ": corrupt header (header checksum mismatch)");
   }
   if (payload_size != file.size() - header_size) {
@@ -89,7 +77,7 @@ BinaryHeaderView ParseBinaryHeader(std::span<const uint8_t> file, const FormatSp
                     std::to_string(file.size() - header_size) + " bytes, header says " +
                     std::to_string(payload_size));
   }
-  view.payload_checksum = Load<uint64_t>(file.data() + 24);
+  view.payload_checksum = LoadLittleEndian<uint64_t>(file.data() + 24);
   view.fields = file.subspan(kBaseHeaderSize, header_size - kBaseHeaderSize);
   view.payload = file.subspan(header_size);
   return view;

@@ -17,6 +17,7 @@
 
 #include <bit>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <span>
 #include <string>
@@ -30,6 +31,20 @@ static_assert(std::endian::native == std::endian::little,
               "rrslam's binary formats are read by direct mapping on little-endian hosts");
 
 inline constexpr uint32_t kBaseHeaderSize = 40;
+
+// Unaligned little-endian loads and stores of fixed-width values (the host is
+// little-endian, see above).
+template <typename T>
+T LoadLittleEndian(const uint8_t* p) {
+  T value;
+  std::memcpy(&value, p, sizeof(T));
+  return value;
+}
+
+template <typename T>
+void StoreLittleEndian(uint8_t* p, T value) {
+  std::memcpy(p, &value, sizeof(T));
+}
 
 // XXH3-64 of `bytes` (the checksum of every rrslam binary format).
 uint64_t Checksum64(std::span<const uint8_t> bytes);

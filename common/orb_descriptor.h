@@ -25,13 +25,26 @@ struct alignas(32) OrbDescriptor {
 };
 static_assert(sizeof(OrbDescriptor) == 32);
 
+// A descriptor held as four 64-bit words, for inner loops that compare one
+// descriptor against many (loaded once, kept in registers).
+struct DescriptorWords {
+  uint64_t w[4];
+};
+
+inline DescriptorWords ToWords(const OrbDescriptor& d) {
+  DescriptorWords x;
+  std::memcpy(x.w, d.bytes, 32);
+  return x;
+}
+
 // Number of differing bits, in [0, 256]: four 64-bit popcounts.
+inline int HammingDistance(const DescriptorWords& a, const DescriptorWords& b) {
+  return std::popcount(a.w[0] ^ b.w[0]) + std::popcount(a.w[1] ^ b.w[1]) +
+         std::popcount(a.w[2] ^ b.w[2]) + std::popcount(a.w[3] ^ b.w[3]);
+}
+
 inline int HammingDistance(const OrbDescriptor& a, const OrbDescriptor& b) {
-  uint64_t x[4], y[4];
-  std::memcpy(x, a.bytes, 32);
-  std::memcpy(y, b.bytes, 32);
-  return std::popcount(x[0] ^ y[0]) + std::popcount(x[1] ^ y[1]) +
-         std::popcount(x[2] ^ y[2]) + std::popcount(x[3] ^ y[3]);
+  return HammingDistance(ToWords(a), ToWords(b));
 }
 
 }  // namespace rrslam

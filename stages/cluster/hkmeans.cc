@@ -151,29 +151,13 @@ class WorkerPool {
 };
 
 // ---------------------------------------------------------------------------
-// Distances on descriptors held as four 64-bit words.
+// Nearest centre by Hamming distance (common/orb_descriptor.h).
 
-struct Words {
-  uint64_t w[4];
-};
-
-inline Words ToWords(const OrbDescriptor& d) {
-  Words x;
-  std::memcpy(x.w, d.bytes, 32);
-  return x;
-}
-
-inline int Distance(const Words& a, const Words& b) {
-  return std::popcount(a.w[0] ^ b.w[0]) + std::popcount(a.w[1] ^ b.w[1]) +
-         std::popcount(a.w[2] ^ b.w[2]) + std::popcount(a.w[3] ^ b.w[3]);
-}
-
-// Index of the nearest of `k` centres (the first one on ties, as DBoW2).
-inline int Nearest(const Words* centres, int k, const Words& q) {
+inline int Nearest(const DescriptorWords* centres, int k, const DescriptorWords& q) {
   int best = 0;
-  int best_d = Distance(q, centres[0]);
+  int best_d = HammingDistance(q, centres[0]);
   for (int c = 1; c < k; ++c) {
-    const int d = Distance(q, centres[c]);
+    const int d = HammingDistance(q, centres[c]);
     if (d < best_d) {
       best_d = d;
       best = c;
@@ -322,14 +306,14 @@ std::vector<size_t> SeedIndices(const OrbDescriptor* data, int k, uint64_t seed,
   std::vector<uint64_t> chunk_sum(chunking.chunks, 0);
   // Updates min_dist2 with the newest seed and sums it per chunk.
   auto update = [&](bool first) {
-    const Words last = ToWords(data[seeds.back()]);
+    const DescriptorWords last = ToWords(data[seeds.back()]);
     chunking.Run([&](size_t ch) {
       const auto [b, e] = chunking.Range(ch);
       uint64_t sum = 0;
       for (size_t i = b; i < e; ++i) {
         uint32_t m = first ? std::numeric_limits<uint32_t>::max() : min_dist2[i];
         if (m > 0) {
-          const uint32_t d = static_cast<uint32_t>(Distance(ToWords(data[i]), last));
+          const uint32_t d = static_cast<uint32_t>(HammingDistance(ToWords(data[i]), last));
           if (d * d < m) m = min_dist2[i] = d * d;
         }
         sum += m;
@@ -359,7 +343,7 @@ SplitResult SplitNode(OrbDescriptor* data, size_t n, int k, uint64_t seed, int m
   auto chunk_range = [&](size_t ch) { return chunking.Range(ch); };
   auto parallel = [&](const std::function<void(size_t)>& fn) { chunking.Run(fn); };
 
-  std::vector<Words> centres;
+  std::vector<DescriptorWords> centres;
   for (size_t index : SeedIndices(data, k, seed, chunking, ws.min_dist2)) {
     centres.push_back(ToWords(data[index]));
   }
@@ -707,7 +691,7 @@ BinaryKMeansResult BinaryKMeans(std::span<const OrbDescriptor> descriptors, int 
   out.iterations = r.iterations;
   out.converged = r.converged;
   out.assignment.resize(n);
-  std::vector<Words> centres;
+  std::vector<DescriptorWords> centres;
   for (const OrbDescriptor& c : r.centres) centres.push_back(ToWords(c));
   for (size_t i = 0; i < n; ++i) {
     out.assignment[i] = static_cast<uint32_t>(

@@ -145,23 +145,6 @@ WordId Vocabulary::Transform(const OrbDescriptor& descriptor) const {
 
 namespace {
 
-struct Words4 {
-  uint64_t w[4];
-};
-
-inline Words4 LoadWords(const OrbDescriptor& d) {
-  Words4 x;
-  std::memcpy(x.w, d.bytes, 32);
-  return x;
-}
-
-inline int Distance(const Words4& a, const OrbDescriptor& b) {
-  uint64_t y[4];
-  std::memcpy(y, b.bytes, 32);
-  return std::popcount(a.w[0] ^ y[0]) + std::popcount(a.w[1] ^ y[1]) +
-         std::popcount(a.w[2] ^ y[2]) + std::popcount(a.w[3] ^ y[3]);
-}
-
 // Descends a batch of descriptors level by level: while one descriptor waits
 // for its children's descriptors to arrive from memory, the others compute,
 // so the cache misses of the deep, cold levels overlap (the tree is ~40 MB).
@@ -172,10 +155,10 @@ void DescendBatched(const VocabularyView& v, std::span<const OrbDescriptor> q, u
   constexpr size_t kBatch = 16;
   for (size_t base = 0; base < q.size(); base += kBatch) {
     const size_t m = std::min(kBatch, q.size() - base);
-    Words4 words[kBatch];
+    DescriptorWords words[kBatch];
     uint32_t node[kBatch], grp[kBatch], first[kBatch], count[kBatch], active[kBatch];
     for (size_t i = 0; i < m; ++i) {
-      words[i] = LoadWords(q[base + i]);
+      words[i] = ToWords(q[base + i]);
       node[i] = 0;
       grp[i] = 0;
       active[i] = static_cast<uint32_t>(i);
@@ -203,9 +186,9 @@ void DescendBatched(const VocabularyView& v, std::span<const OrbDescriptor> q, u
       for (size_t a = 0; a < num_active; ++a) {
         const uint32_t i = active[a];
         uint32_t best = first[i];
-        int best_d = Distance(words[i], v.descriptors[best]);
+        int best_d = HammingDistance(words[i], ToWords(v.descriptors[best]));
         for (uint32_t j = first[i] + 1; j < first[i] + count[i]; ++j) {
-          const int d = Distance(words[i], v.descriptors[j]);
+          const int d = HammingDistance(words[i], ToWords(v.descriptors[j]));
           if (d < best_d) {
             best_d = d;
             best = j;

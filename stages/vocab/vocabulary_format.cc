@@ -20,18 +20,6 @@
 namespace rrslam {
 namespace {
 
-template <typename T>
-T LoadLE(const uint8_t* p) {
-  T value;
-  std::memcpy(&value, p, sizeof(T));
-  return value;
-}
-
-template <typename T>
-void StoreLE(uint8_t* p, T value) {
-  std::memcpy(p, &value, sizeof(T));
-}
-
 std::string NodeText(uint64_t node) { return "node " + std::to_string(node); }
 
 // DBoW2's header ranges (TemplatedVocabulary::loadFromTextFile).
@@ -317,17 +305,17 @@ std::vector<uint8_t> EncodeBinaryVocabulary(const VocabularyView& v) {
     std::memcpy(payload + metadata_offset, v.metadata.data(), v.metadata.size());
 
   uint8_t fields[kFieldsSize] = {};
-  StoreLE<uint32_t>(fields + 0, static_cast<uint32_t>(v.info.k));
-  StoreLE<uint32_t>(fields + 4, static_cast<uint32_t>(v.info.levels));
-  StoreLE<uint32_t>(fields + 8, static_cast<uint32_t>(v.info.weighting));
-  StoreLE<uint32_t>(fields + 12, static_cast<uint32_t>(v.info.scoring));
-  StoreLE<uint64_t>(fields + 16, n);
-  StoreLE<uint64_t>(fields + 24, v.info.num_words);
-  StoreLE<uint64_t>(fields + 32, descriptors_offset);
-  StoreLE<uint64_t>(fields + 40, links_offset);
-  StoreLE<uint64_t>(fields + 48, weights_offset);
-  StoreLE<uint64_t>(fields + 56, metadata_offset);
-  StoreLE<uint64_t>(fields + 64, v.metadata.size());
+  StoreLittleEndian<uint32_t>(fields + 0, static_cast<uint32_t>(v.info.k));
+  StoreLittleEndian<uint32_t>(fields + 4, static_cast<uint32_t>(v.info.levels));
+  StoreLittleEndian<uint32_t>(fields + 8, static_cast<uint32_t>(v.info.weighting));
+  StoreLittleEndian<uint32_t>(fields + 12, static_cast<uint32_t>(v.info.scoring));
+  StoreLittleEndian<uint64_t>(fields + 16, n);
+  StoreLittleEndian<uint64_t>(fields + 24, v.info.num_words);
+  StoreLittleEndian<uint64_t>(fields + 32, descriptors_offset);
+  StoreLittleEndian<uint64_t>(fields + 40, links_offset);
+  StoreLittleEndian<uint64_t>(fields + 48, weights_offset);
+  StoreLittleEndian<uint64_t>(fields + 56, metadata_offset);
+  StoreLittleEndian<uint64_t>(fields + 64, v.metadata.size());
   const std::vector<uint8_t> header =
       BuildBinaryHeader(kVocabularyFormat, fields, std::span<const uint8_t>(payload, payload_size));
   if (header.size() != kVocabularyHeaderSize) {
@@ -360,17 +348,17 @@ BinaryVocabularyHeader ParseHeaderImpl(std::span<const uint8_t> file, const std:
   h.minor = base.minor;
   h.file_size = file.size();
   h.payload_checksum = base.payload_checksum;
-  const uint32_t k = LoadLE<uint32_t>(f + 0);
-  const uint32_t levels = LoadLE<uint32_t>(f + 4);
-  const uint32_t weighting = LoadLE<uint32_t>(f + 8);
-  const uint32_t scoring = LoadLE<uint32_t>(f + 12);
-  h.info.num_nodes = LoadLE<uint64_t>(f + 16);
-  h.info.num_words = LoadLE<uint64_t>(f + 24);
-  h.descriptors_offset = LoadLE<uint64_t>(f + 32);
-  h.links_offset = LoadLE<uint64_t>(f + 40);
-  h.weights_offset = LoadLE<uint64_t>(f + 48);
-  h.metadata_offset = LoadLE<uint64_t>(f + 56);
-  h.metadata_size = LoadLE<uint64_t>(f + 64);
+  const uint32_t k = LoadLittleEndian<uint32_t>(f + 0);
+  const uint32_t levels = LoadLittleEndian<uint32_t>(f + 4);
+  const uint32_t weighting = LoadLittleEndian<uint32_t>(f + 8);
+  const uint32_t scoring = LoadLittleEndian<uint32_t>(f + 12);
+  h.info.num_nodes = LoadLittleEndian<uint64_t>(f + 16);
+  h.info.num_words = LoadLittleEndian<uint64_t>(f + 24);
+  h.descriptors_offset = LoadLittleEndian<uint64_t>(f + 32);
+  h.links_offset = LoadLittleEndian<uint64_t>(f + 40);
+  h.weights_offset = LoadLittleEndian<uint64_t>(f + 48);
+  h.metadata_offset = LoadLittleEndian<uint64_t>(f + 56);
+  h.metadata_size = LoadLittleEndian<uint64_t>(f + 64);
   auto fail = [&](const std::string& what) {
     throw DataError(source + ": corrupt header: " + what);
   };
