@@ -128,7 +128,8 @@ bool EvalAteOptions::Check(std::string* why) const {
     return false;
   }
   return CheckOutputs({{"ground-truth", gt_path}, {"estimate", est_path}},
-                      {{"--plot", plot_path},
+                      {{"--out", report_path},
+                       {"--plot", plot_path},
                        {"--save-associations", associations_path},
                        {"--save-aligned", aligned_path}},
                       why);
@@ -139,6 +140,7 @@ nlohmann::ordered_json EvalAteOptions::ToJson() const {
                               {"est", est_path.string()},
                               {"ate", ate.ToJson()},
                               {"json", json},
+                              {"out", report_path.string()},
                               {"plot", plot_path.string()},
                               {"save_associations", associations_path.string()},
                               {"save_aligned", aligned_path.string()}};
@@ -157,7 +159,7 @@ bool EvalRpeOptions::Check(std::string* why) const {
   }
   if (!rpe.Check(why)) return false;
   return CheckOutputs({{"ground-truth", gt_path}, {"estimate", est_path}},
-                      {{"--save-pairs", pairs_path}}, why);
+                      {{"--out", report_path}, {"--save-pairs", pairs_path}}, why);
 }
 
 nlohmann::ordered_json EvalRpeOptions::ToJson() const {
@@ -165,6 +167,7 @@ nlohmann::ordered_json EvalRpeOptions::ToJson() const {
           {"est", est_path.string()},
           {"rpe", rpe.ToJson()},
           {"json", json},
+          {"out", report_path.string()},
           {"save_pairs", pairs_path.string()}};
 }
 
@@ -212,8 +215,7 @@ AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {
                                    .dump()}});
     files.emplace_back(options.plot_path, std::string(png.begin(), png.end()));
   }
-  WriteAll(std::move(files));
-
+  std::string report;
   if (options.json) {
     nlohmann::ordered_json j = {{"producer", Producer(kStage)},
                                 {"command", "ate"},
@@ -221,11 +223,16 @@ AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {
                                 {"est", options.est_path.string()},
                                 {"options", options.ate.ToJson()}};
     j.update(AteResultToJson(result));
-    out << j.dump(2) << "\n";
+    report = j.dump(2) + "\n";
   } else {
-    out << FormatAteReport(result);
+    report = FormatAteReport(result);
   }
-  out.flush();
+  if (!options.report_path.empty()) files.emplace_back(options.report_path, report);
+  WriteAll(std::move(files));
+  if (options.report_path.empty()) {
+    out << report;
+    out.flush();
+  }
   return result;
 }
 
@@ -239,14 +246,7 @@ RpeResult RunEvalRpe(const EvalRpeOptions& options, std::ostream& out) {
   spdlog::info("{} pose pairs compared ({} left out without ground truth within {:.6f} s)",
                result.pairs.size(), result.skipped_pairs, result.max_difference);
 
-  if (!options.pairs_path.empty()) {
-    const nlohmann::ordered_json run = {{"command", "rpe"}, {"options", options.ToJson()}};
-    WriteAll({{options.pairs_path, Header(run,
-                                          "est_stamp_0 est_stamp_1 gt_stamp_0 gt_stamp_1 "
-                                          "translational_error_m rotational_error_deg") +
-                                       FormatRpePairs(result)}});
-  }
-
+  std::string report;
   if (options.json) {
     nlohmann::ordered_json j = {{"producer", Producer(kStage)},
                                 {"command", "rpe"},
@@ -254,11 +254,24 @@ RpeResult RunEvalRpe(const EvalRpeOptions& options, std::ostream& out) {
                                 {"est", options.est_path.string()},
                                 {"options", options.rpe.ToJson()}};
     j.update(RpeResultToJson(result));
-    out << j.dump(2) << "\n";
+    report = j.dump(2) + "\n";
   } else {
-    out << FormatRpeReport(result);
+    report = FormatRpeReport(result);
   }
-  out.flush();
+  std::vector<std::pair<fs::path, std::string>> files;
+  if (!options.pairs_path.empty()) {
+    const nlohmann::ordered_json run = {{"command", "rpe"}, {"options", options.ToJson()}};
+    files.emplace_back(options.pairs_path, Header(run,
+                                                  "est_stamp_0 est_stamp_1 gt_stamp_0 gt_stamp_1 "
+                                                  "translational_error_m rotational_error_deg") +
+                                               FormatRpePairs(result));
+  }
+  if (!options.report_path.empty()) files.emplace_back(options.report_path, report);
+  WriteAll(std::move(files));
+  if (options.report_path.empty()) {
+    out << report;
+    out.flush();
+  }
   return result;
 }
 

@@ -5,8 +5,9 @@
 //        aligned estimate files.
 //   rpe: relative pose error over a fixed delta (rpe.h), optional pairs file.
 //
-// The result goes to `out` (stdout in the executable): evaluate_*.py's verbose
-// text report, or JSON with the inputs, options and producer. Logs go to stderr.
+// The result goes to `out` (stdout in the executable), or to a file with
+// --out: evaluate_*.py's verbose text report, or JSON with the inputs, options
+// and producer. Logs go to stderr.
 // Output files are all prepared before any is committed, so a failure leaves
 // none of them behind, and an existing file is only replaced by a complete one.
 #pragma once
@@ -27,6 +28,7 @@ struct EvalAteOptions {
   std::filesystem::path est_path;   // Estimated trajectory (TUM format). Required.
   AteOptions ate;                   // Pairing, scale (ate.h).
   bool json = false;                // Print JSON instead of the text report.
+  std::filesystem::path report_path;  // Write the report here instead of `out`; empty: `out`.
   std::filesystem::path plot_path;  // PNG plot (plot.h); empty: none. Must end in .png.
   PlotOptions plot;
   // Pairs file (`gt_stamp gx gy gz est_stamp ex ey ez`, aligned estimate); empty: none.
@@ -45,6 +47,7 @@ struct EvalRpeOptions {
   std::filesystem::path est_path;  // Estimated trajectory (TUM format). Required.
   RpeOptions rpe;                  // Delta, lookup bound, error form (rpe.h).
   bool json = false;               // Print JSON instead of the text report.
+  std::filesystem::path report_path;  // Write the report here instead of `out`; empty: `out`.
   // Per-pair errors (`est_t0 est_t1 gt_t0 gt_t1 trans_m rot_deg`); empty: none.
   std::filesystem::path pairs_path;
 

@@ -108,6 +108,21 @@ TEST_F(EvalTool, AteWritesPlotAssociationsAndAlignedEstimate) {
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 150 + 2);
 }
 
+TEST_F(EvalTool, OutWritesTheReportToAFileInsteadOfStdout) {
+  const auto ate = RunStdout("ate --json " + Inputs() + " --out " + Quote(dir_ / "ate.json"));
+  ASSERT_EQ(ate.exit_code, 0) << ate.output;
+  EXPECT_EQ(ate.output, "");
+  const auto json = nlohmann::json::parse(ReadFileToString(dir_ / "ate.json"));
+  EXPECT_EQ(json["pairs"], 150);
+  const auto rpe = RunStdout("rpe " + Inputs() + " --delta 1 --delta-unit f --out " +
+                             Quote(dir_ / "rpe.txt"));
+  ASSERT_EQ(rpe.exit_code, 0) << rpe.output;
+  EXPECT_EQ(rpe.output, "");
+  EXPECT_NE(ReadFileToString(dir_ / "rpe.txt").find("compared_pose_pairs"), std::string::npos);
+  // The report may not overwrite an input.
+  EXPECT_EQ(RunTool("eval", "ate " + Inputs() + " --out " + Quote(est_)).exit_code, 64);
+}
+
 TEST_F(EvalTool, RpeTextAndJson) {
   auto r = RunTool("eval", "rpe " + Inputs() + " --delta 1 --delta-unit f");
   ASSERT_EQ(r.exit_code, 0) << r.output;

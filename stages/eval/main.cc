@@ -56,6 +56,8 @@ void BindAte(CLI::App* command, rrslam::EvalAteOptions* options) {
   command->add_option("--scale", options->ate.scale, "Factor applied to the estimated positions")
       ->capture_default_str();
   command->add_flag("--json", options->json, "Print the result as JSON instead of text");
+  command->add_option("--out", options->report_path,
+                      "Write the result (text or JSON) to this file instead of stdout");
   command->add_option("--plot", options->plot_path,
                       "Write a PNG top view of ground truth, aligned estimate and errors");
   AddChoice(command, "--plot-axes", &options->plot.axes,
@@ -102,6 +104,8 @@ void BindRpe(CLI::App* command, rrslam::EvalRpeOptions* options) {
             "script: E = P Q^-1 as evaluate_rpe.py computes; paper: E = Q^-1 P as the "
             "benchmark's paper writes (P, Q: estimated and true motion)");
   command->add_flag("--json", options->json, "Print the result as JSON instead of text");
+  command->add_option("--out", options->report_path,
+                      "Write the result (text or JSON) to this file instead of stdout");
   command->add_option(
       "--save-pairs", options->pairs_path,
       "Write one line per pair: est_t0 est_t1 gt_t0 gt_t1 trans_error_m rot_error_deg");
