@@ -8,6 +8,7 @@
 
 #include "common/cli.h"
 #include "stages/eval/eval.h"
+#include "stages/eval/summary.h"
 
 namespace {
 
@@ -111,19 +112,32 @@ void BindRpe(CLI::App* command, rrslam::EvalRpeOptions* options) {
       "Write one line per pair: est_t0 est_t1 gt_t0 gt_t1 trans_error_m rot_error_deg");
 }
 
+void BindSummary(CLI::App* command, rrslam::EvalSummaryOptions* options) {
+  command
+      ->add_option("runs", options->run_dirs,
+                   "Run folders, each with ate.json (rrslam-eval ate --json) and optionally "
+                   "run.json or track/run.json (rrslam-track)")
+      ->required();
+  command->add_option("--out", options->out, "Write the table to this file instead of stdout");
+  command->add_flag("--json", options->json, "JSON instead of a Markdown table");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   rrslam::EvalAteOptions ate_options;
   rrslam::EvalRpeOptions rpe_options;
+  rrslam::EvalSummaryOptions summary_options;
   CLI::App* ate = nullptr;
   CLI::App* rpe = nullptr;
+  CLI::App* summary = nullptr;
   return rrslam::RunTool(
       argc, argv,
       {"eval",
        "Evaluates an estimated camera trajectory against ground truth as the TUM RGB-D "
-       "benchmark does: absolute trajectory error (ate) or relative pose error (rpe). "
-       "The result is printed on stdout (text, or JSON with --json)."},
+       "benchmark does: absolute trajectory error (ate) or relative pose error (rpe); "
+       "summary tabulates many evaluated runs. The result is printed on stdout (text, or "
+       "JSON with --json) or written to --out."},
       [&](CLI::App& app) {
         app.require_subcommand(1);
         ate = app.add_subcommand("ate", "Absolute trajectory error after rigid (Horn) alignment");
@@ -132,12 +146,17 @@ int main(int argc, char** argv) {
         rpe = app.add_subcommand("rpe", "Relative pose error over a fixed delta");
         BindRpe(rpe, &rpe_options);
         rpe->fallthrough();
+        summary = app.add_subcommand("summary", "One table over many evaluated runs");
+        BindSummary(summary, &summary_options);
+        summary->fallthrough();
       },
       [&] {
         if (ate->parsed()) {
           rrslam::RunEvalAte(ate_options, std::cout);
-        } else {
+        } else if (rpe->parsed()) {
           rrslam::RunEvalRpe(rpe_options, std::cout);
+        } else {
+          rrslam::RunEvalSummary(summary_options, std::cout);
         }
       });
 }
