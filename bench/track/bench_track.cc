@@ -1,0 +1,272 @@
+// bench_track: runs rrslam-track on the benchmark sequences prepared by
+// bench/track/bench.mk, scores the trajectories with the eval library
+// (ComputeAte, as rrslam-eval ate) and writes every figure beside its goal.
+//
+//   bench_track --bin DIR --data DIR --kitchen DIR --kitchen-settings YAML
+//               --paths "loop sweep rotation" --machine TEXT --out PREFIX
+// writes PREFIX.txt and PREFIX.json. Exit status 0 when every run completed
+// (goals missed are reported as FAIL in the files, not as an error).
+#include <sys/wait.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "common/trajectory.h"
+#include "stages/eval/ate.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::ordered_json;
+
+std::string Quote(const fs::path& p) { return "'" + p.string() + "'"; }
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Runs a command line; returns its exit status and echoes it to stderr.
+int Run(const std::string& command) {
+  std::cerr << "bench-track: " << command << std::endl;
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+struct Figure {
+  std::string name;
+  double value;
+  std::string unit;
+  std::string goal;  // Human-readable, e.g. "<= 4.3 cm".
+  bool pass;
+};
+
+class Report {
+ public:
+  void Add(const std::string& section, const Figure& f) {
+    figures_.emplace_back(section, f);
+  }
+  void Note(const std::string& section, const std::string& text) {
+    notes_.emplace_back(section, text);
+  }
+  bool AllPass() const {
+    for (const auto& [s, f] : figures_) {
+      if (!f.pass) return false;
+    }
+    return true;
+  }
+  std::string Text() const {
+    std::ostringstream out;
+    std::string section;
+    for (const auto& [s, f] : figures_) {
+      if (s != section) {
+        out << "\n[" << s << "]\n";
+        section = s;
+        for (const auto& [ns, text] : notes_) {
+          if (ns == s) out << "  # " << text << "\n";
+        }
+      }
+      std::ostringstream value;
+      value << std::setprecision(6) << f.value << " " << f.unit;
+      out << "  " << std::left << std::setw(44) << f.name << std::setw(18) << value.str()
+          << std::setw(16) << ("goal " + f.goal) << (f.pass ? "PASS" : "FAIL") << "\n";
+    }
+    return out.str();
+  }
+  ordered_json Json() const {
+    ordered_json j = ordered_json::array();
+    for (const auto& [s, f] : figures_) {
+      j.push_back({{"section", s},
+                   {"figure", f.name},
+                   {"value", f.value},
+                   {"unit", f.unit},
+                   {"goal", f.goal},
+                   {"pass", f.pass}});
+    }
+    return j;
+  }
+
+ private:
+  std::vector<std::pair<std::string, Figure>> figures_;
+  std::vector<std::pair<std::string, std::string>> notes_;
+};
+
+struct RunResult {
+  bool ok = false;
+  nlohmann::json run;  // run.json
+  double ate_rmse_m = 0;
+  std::string trajectory;  // CameraTrajectory.txt bytes
+};
+
+RunResult TrackAndScore(const fs::path& bin, const fs::path& sequence, const fs::path& settings,
+                        const fs::path& vocab, const fs::path& out, const std::string& extra) {
+  RunResult r;
+  const std::string command = (bin / "rrslam-track").string() + " --quiet --sequence " +
+                              Quote(sequence) + " --settings " + Quote(settings) + " --vocab " +
+                              Quote(vocab) + " --out " + Quote(out) + " " + extra;
+  if (Run(command) != 0) return r;
+  r.run = nlohmann::json::parse(ReadText(out / "run.json"));
+  r.trajectory = ReadText(out / "CameraTrajectory.txt");
+  const rrslam::Trajectory gt = rrslam::ReadTumTrajectory(sequence / "groundtruth.txt");
+  const rrslam::Trajectory est = rrslam::ReadTumTrajectory(out / "CameraTrajectory.txt");
+  r.ate_rmse_m = rrslam::ComputeAte(gt, est).error.rmse;
+  r.ok = true;
+  return r;
+}
+
+size_t Count(const nlohmann::json& run, const char* key) {
+  return run.at("counts").at(key).get<size_t>();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Runs the track benchmark and writes its figures beside their goals.");
+  fs::path bin, data, kitchen, kitchen_settings;
+  std::string paths = "loop sweep rotation", machine, out_prefix;
+  app.add_option("--bin", bin, "Folder of the rrslam-* executables")->required();
+  app.add_option("--data", data, "Benchmark data folder (bench/track/bench.mk)")->required();
+  app.add_option("--kitchen", kitchen, "7scenes-kitchen sequence folder");
+  app.add_option("--kitchen-settings", kitchen_settings, "Its settings YAML");
+  app.add_option("--paths", paths, "Synthetic camera paths")->capture_default_str();
+  app.add_option("--machine", machine, "Machine description line");
+  app.add_option("--out", out_prefix, "Result files prefix (writes .txt and .json)")->required();
+  CLI11_PARSE(app, argc, argv);
+
+  Report report;
+  bool failed_run = false;
+  const fs::path runs = data / "runs";
+  fs::create_directories(runs);
+
+  // 7scenes-kitchen.
+  const fs::path kitchen_vocab = data / "kitchen" / "voc.rrv";
+  if (!kitchen.empty() && fs::exists(kitchen / "rgb.txt") && fs::exists(kitchen_vocab)) {
+    const std::string s = "7scenes-kitchen, batch";
+    const RunResult a =
+        TrackAndScore(bin, kitchen, kitchen_settings, kitchen_vocab, runs / "kitchen-batch-1", "");
+    const RunResult b =
+        TrackAndScore(bin, kitchen, kitchen_settings, kitchen_vocab, runs / "kitchen-batch-2", "");
+    if (!a.ok || !b.ok) {
+      failed_run = true;
+    } else {
+      const size_t frames = Count(a.run, "frames");
+      const size_t tracked = Count(a.run, "tracked");
+      report.Note(s, "vocabulary " + a.run.at("vocabulary").get<std::string>());
+      report.Add(s, {"frames tracked", double(tracked), "of " + std::to_string(frames),
+                     "all", tracked == frames});
+      report.Add(s, {"ATE RMSE", a.ate_rmse_m * 100, "cm", "<= 4.3 cm", a.ate_rmse_m <= 0.043});
+      const auto& t = a.run.at("timings");
+      const double median = t.at("tracking").at("median_ms").get<double>();
+      report.Add(s, {"tracking median (extraction incl.)", median, "ms", "<= 15 ms", median <= 15});
+      report.Add(s, {"tracking mean", t.at("tracking").at("mean_ms").get<double>(), "ms", "-", true});
+      report.Add(s, {"tracking p95", t.at("tracking").at("p95_ms").get<double>(), "ms", "-", true});
+      report.Add(s, {"extraction median", t.at("extraction").at("median_ms").get<double>(), "ms",
+                     "-", true});
+      report.Add(s, {"local mapping per keyframe, median",
+                     t.at("local_mapping").at("median_ms").get<double>(), "ms", "-", true});
+      report.Add(s, {"local mapping per keyframe, p95",
+                     t.at("local_mapping").at("p95_ms").get<double>(), "ms", "-", true});
+      report.Add(s, {"keyframes (final map)", double(Count(a.run, "keyframes")), "", "-", true});
+      report.Add(s, {"map points (final map)", double(Count(a.run, "map_points")), "", "-", true});
+      report.Add(s, {"total wall time", t.at("total_s").get<double>(), "s", "-", true});
+      const double rss = a.run.at("peak_rss_mb").get<double>();
+      report.Add(s, {"peak memory (max RSS)", rss, "MB", "<= 500 MB", rss <= 500});
+      const bool identical = a.trajectory == b.trajectory &&
+                             ReadText(runs / "kitchen-batch-1" / "KeyFrameTrajectory.txt") ==
+                                 ReadText(runs / "kitchen-batch-2" / "KeyFrameTrajectory.txt");
+      report.Add(s, {"two batch runs byte-identical", identical ? 1.0 : 0.0, "(1 = yes)", "yes",
+                     identical});
+    }
+
+    const std::string r = "7scenes-kitchen, realtime (paced at the frame timestamps)";
+    const RunResult rt = TrackAndScore(bin, kitchen, kitchen_settings, kitchen_vocab,
+                                       runs / "kitchen-realtime", "--mode realtime --pace");
+    if (!rt.ok) {
+      failed_run = true;
+    } else {
+      const size_t frames = Count(rt.run, "frames");
+      const size_t tracked = Count(rt.run, "tracked");
+      const auto& lm = rt.run.at("local_mapping");
+      const auto& t = rt.run.at("timings");
+      const double loop_s = t.at("loop_s").get<double>();
+      const double mapping_s = t.at("local_mapping").at("total_ms").get<double>() / 1000;
+      const double busy = mapping_s / loop_s;
+      const size_t max_queue = lm.at("max_queue").get<size_t>();
+      const size_t processed = lm.at("keyframes_processed").get<size_t>();
+      const size_t created = Count(rt.run, "keyframes_created");
+      report.Note(r, "keeping up: the mapping thread is busy less than the whole run, every "
+                     "keyframe is processed and the queue never holds more than 2");
+      report.Add(r, {"frames tracked", double(tracked), "of " + std::to_string(frames), "all",
+                     tracked == frames});
+      report.Add(r, {"ATE RMSE", rt.ate_rmse_m * 100, "cm", "-", true});
+      report.Add(r, {"local mapping busy fraction", busy, "", "< 1", busy < 1});
+      report.Add(r, {"keyframes processed / created", double(processed),
+                     "of " + std::to_string(created), "all", processed == created});
+      report.Add(r, {"longest keyframe queue", double(max_queue), "", "<= 2", max_queue <= 2});
+      report.Add(r, {"aborted local BAs", double(lm.at("aborted_bundle_adjustments").get<size_t>()),
+                     "of " + std::to_string(lm.at("bundle_adjustments").get<size_t>()), "-", true});
+      report.Add(r, {"tracking median", t.at("tracking").at("median_ms").get<double>(), "ms", "-",
+                     true});
+    }
+  } else {
+    report.Note("7scenes-kitchen", "skipped: sequence or vocabulary not found");
+  }
+
+  // Synthetic sequences.
+  std::istringstream path_list(paths);
+  std::string path;
+  while (path_list >> path) {
+    const fs::path vocab = data / "synth" / (path + "-vocab") / "voc.rrv";
+    for (const std::string variant : {"clean", "noisy"}) {
+      const fs::path seq = data / "synth" / (path + "-" + variant);
+      const std::string s = "synthetic " + path + ", " +
+                            (variant == "clean" ? "noise-free depth" : "default depth noise");
+      if (!fs::exists(seq / "groundtruth.txt") || !fs::exists(vocab)) {
+        report.Note(s, "skipped: sequence or vocabulary not found");
+        continue;
+      }
+      const RunResult res = TrackAndScore(bin, seq, seq / "settings.yaml", vocab,
+                                          runs / ("synth-" + path + "-" + variant), "");
+      if (!res.ok) {
+        failed_run = true;
+        continue;
+      }
+      const size_t frames = Count(res.run, "frames");
+      const size_t tracked = Count(res.run, "tracked");
+      const double goal = variant == "clean" ? 1.0 : 2.0;
+      report.Add(s, {"frames tracked", double(tracked), "of " + std::to_string(frames), "all",
+                     tracked == frames});
+      std::ostringstream g;
+      g << "<= " << goal << " cm";
+      report.Add(s, {"ATE RMSE", res.ate_rmse_m * 100, "cm", g.str(), res.ate_rmse_m * 100 <= goal});
+      report.Add(s, {"tracking median", res.run.at("timings").at("tracking").at("median_ms").get<double>(),
+                     "ms", "-", true});
+      report.Add(s, {"keyframes (final map)", double(Count(res.run, "keyframes")), "", "-", true});
+    }
+  }
+
+  std::ostringstream text;
+  text << "# bench-track: rrslam-track against the goals of issue 4\n";
+  text << "# machine: " << machine << "\n";
+  text << "# data: " << data.string() << " (bench/track/bench.mk)\n";
+  text << report.Text();
+  text << "\nall goals met: " << (report.AllPass() ? "yes" : "no") << "\n";
+  ordered_json j;
+  j["machine"] = machine;
+  j["figures"] = report.Json();
+  j["all_goals_met"] = report.AllPass();
+  std::ofstream(out_prefix + ".txt") << text.str();
+  std::ofstream(out_prefix + ".json") << j.dump(2) << "\n";
+  std::cout << text.str();
+  return failed_run ? 1 : 0;
+}

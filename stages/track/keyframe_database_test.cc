@@ -1,0 +1,97 @@
+#include "stages/track/keyframe_database.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "stages/track/test_scene.h"
+
+namespace rrslam {
+namespace {
+
+using testing::MakeGridKeyFrame;
+using testing::MakeObservedPoint;
+using testing::TestSensor;
+
+Vocabulary HundredWordVocabulary() {
+  const std::string s = testing::HundredWordVocabularyText();
+  return Vocabulary::FromBytes({reinterpret_cast<const uint8_t*>(s.data()), s.size()}, "test");
+}
+
+// An L1-normalized BoW vector with equal weights on `words`.
+BowVector Bow(const std::vector<WordId>& words) {
+  BowVector bow;
+  for (WordId w : words) bow.entries.emplace_back(w, 1.0 / words.size());
+  return bow;
+}
+
+std::vector<WordId> Range(WordId first, WordId last) {
+  std::vector<WordId> out;
+  for (WordId w = first; w <= last; ++w) out.push_back(w);
+  return out;
+}
+
+class KeyFrameDatabaseTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_EQ(vocabulary_.num_words(), 100u);
+    auto words_b = Range(1, 18);
+    words_b.push_back(50);
+    words_b.push_back(51);
+    auto words_d = Range(1, 10);
+    for (WordId w = 60; w <= 69; ++w) words_d.push_back(w);
+    const std::vector<std::vector<WordId>> words = {Range(1, 20), words_b, Range(60, 79), words_d};
+    for (const auto& w : words) {
+      KeyFrame* kf = MakeGridKeyFrame(&map_, sensor_, 40, Rigid3d::Identity(), rng_);
+      kf->SetBow(Bow(w), {});
+      database_.Add(kf);
+      keyframes_.push_back(kf);
+    }
+  }
+
+  std::mt19937 rng_{3};
+  SensorModel sensor_ = TestSensor();
+  Vocabulary vocabulary_ = HundredWordVocabulary();
+  Map map_;
+  KeyFrameDatabase database_{vocabulary_};
+  std::vector<KeyFrame*> keyframes_;  // A, B, C, D
+};
+
+TEST_F(KeyFrameDatabaseTest, IndexesKeyFramesByWordInIdOrder) {
+  EXPECT_EQ(database_.KeyFramesWithWord(1),
+            (std::vector<KeyFrame*>{keyframes_[0], keyframes_[1], keyframes_[3]}));
+  EXPECT_EQ(database_.KeyFramesWithWord(70), (std::vector<KeyFrame*>{keyframes_[2]}));
+  EXPECT_TRUE(database_.KeyFramesWithWord(99).empty());
+  database_.Erase(keyframes_[1]);
+  EXPECT_EQ(database_.KeyFramesWithWord(1), (std::vector<KeyFrame*>{keyframes_[0], keyframes_[3]}));
+  EXPECT_TRUE(database_.KeyFramesWithWord(50).empty());
+}
+
+TEST_F(KeyFrameDatabaseTest, RelocalizationCandidatesShareMostWordsAndScoreWell) {
+  // A shares 20 words with the query, B 18, D 10, C none: only A and B share
+  // more than 80% of the most; scores 1.0 and 0.9, both above 75% of the best.
+  const BowVector query = Bow(Range(1, 20));
+  EXPECT_NEAR(vocabulary_.Score(query, keyframes_[1]->bow()), 0.9, 1e-9);
+  EXPECT_EQ(database_.DetectRelocalizationCandidates(query),
+            (std::vector<KeyFrame*>{keyframes_[0], keyframes_[1]}));
+  // Nothing in common: no candidate.
+  EXPECT_TRUE(database_.DetectRelocalizationCandidates(Bow({95, 96})).empty());
+}
+
+TEST_F(KeyFrameDatabaseTest, CovisibleCandidatesAreGroupedUnderTheirBest) {
+  // A and B covisible (20 shared points): one group, represented by A.
+  for (uint32_t i = 0; i < 20; ++i) MakeObservedPoint(&map_, {keyframes_[0], keyframes_[1]}, {i, i});
+  map_.UpdateConnections(keyframes_[0]);
+  map_.UpdateConnections(keyframes_[1]);
+  EXPECT_EQ(database_.DetectRelocalizationCandidates(Bow(Range(1, 20))),
+            (std::vector<KeyFrame*>{keyframes_[0]}));
+}
+
+TEST_F(KeyFrameDatabaseTest, ErasedKeyFramesAreNotCandidates) {
+  database_.Erase(keyframes_[0]);
+  EXPECT_EQ(database_.DetectRelocalizationCandidates(Bow(Range(1, 20))),
+            (std::vector<KeyFrame*>{keyframes_[1]}));
+}
+
+}  // namespace
+}  // namespace rrslam

@@ -1,0 +1,49 @@
+// rrslam-track: RGB-D tracking and local mapping over a TUM-layout sequence.
+#include "common/cli.h"
+#include "stages/track/track.h"
+
+namespace {
+
+void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
+  app.add_option("--sequence", o->sequence, "TUM RGB-D sequence folder")->required();
+  app.add_option("--settings", o->settings, "ORB-SLAM2 RGB-D settings YAML")->required();
+  app.add_option("--vocab", o->vocabulary,
+                 "Vocabulary: rrslam binary (.rrv) or DBoW2 text (ORBvoc.txt)")
+      ->required();
+  app.add_option("--out", o->out,
+                 "Output folder (CameraTrajectory.txt, KeyFrameTrajectory.txt, run.json); "
+                 "replaced as a whole")
+      ->required();
+  app.add_option("--features", o->features,
+                 "Features file from rrslam-extract to use instead of extracting (its frames "
+                 "must be frames of the sequence, its settings those of --settings)")
+      ->capture_default_str();
+  app.add_option("--associations", o->associations,
+                 "Associations file (rgb_ts rgb depth_ts depth), relative to the sequence; "
+                 "default: pair rgb.txt and depth.txt")
+      ->capture_default_str();
+  app.add_option("--mode", o->mode,
+                 "batch: local mapping in step after each keyframe (bit-identical runs); "
+                 "realtime: local mapping in its own thread")
+      ->capture_default_str();
+  app.add_option("--max-frames", o->max_frames, "Track at most this many frames (0 = all)")
+      ->capture_default_str();
+  app.add_flag("--pace", o->pace,
+               "Realtime mode: deliver frames no faster than their timestamps, as a live "
+               "camera");
+  app.add_option("--extraction-threads", o->extraction_threads,
+                 "Threads of the ORB extractor (does not change the result)")
+      ->capture_default_str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  rrslam::TrackOptions options;
+  return rrslam::RunTool(
+      argc, argv,
+      {"track",
+       "Tracks an RGB-D sequence and builds a local map (ORB-SLAM2's RGB-D front end with "
+       "Ceres); writes CameraTrajectory.txt, KeyFrameTrajectory.txt and run.json."},
+      [&](CLI::App& app) { BindTrackOptions(app, &options); }, [&] { rrslam::RunTrack(options); });
+}

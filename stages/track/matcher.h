@@ -1,0 +1,124 @@
+// Descriptor matching between frames, keyframes and map points, with the
+// semantics of ORB-SLAM2's ORBmatcher (written anew):
+//  - projection search: map points projected with a pose prediction, matched
+//    to keypoints in a window around the projection at the predicted scale;
+//  - BoW search: keypoints sharing a vocabulary node (FeatureVector) are the
+//    only candidates, with Lowe's ratio test;
+//  - rotation consistency: the orientation change of the matches is binned in
+//    a 30-bin histogram and matches outside the three fullest bins are dropped;
+//  - Hamming thresholds kHammingHigh (100) and kHammingLow (50).
+// All matches are deterministic: candidates are visited in keypoint/node/id order.
+// Thread-safety: const methods; the map objects touched must be locked by the
+// caller (Map::mutex()).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <utility>
+#include <vector>
+
+#include "stages/track/frame.h"
+#include "stages/track/keyframe.h"
+#include "stages/track/map.h"
+#include "stages/track/sensor_model.h"
+
+namespace rrslam {
+
+inline constexpr int kHammingHigh = 100;  // ORB-SLAM2's TH_HIGH.
+inline constexpr int kHammingLow = 50;    // ORB-SLAM2's TH_LOW.
+
+// Histogram of the orientation change (degrees) of candidate matches.
+class RotationHistogram {
+ public:
+  static constexpr int kBins = 30;  // 12 degrees per bin.
+
+  // Records match `item` whose keypoints have orientations `angle1_deg` and
+  // `angle2_deg` (change = angle1 - angle2 modulo 360).
+  void Add(float angle1_deg, float angle2_deg, int item);
+  // The items outside the three fullest bins, in insertion order per bin.
+  // The second and third bins are kept only when they hold at least a tenth
+  // of the fullest (ORB-SLAM2's ComputeThreeMaxima).
+  std::vector<int> Inconsistent() const;
+  // Bin of an orientation change in degrees.
+  static int Bin(float rotation_deg);
+
+ private:
+  std::array<std::vector<int>, kBins> bins_;
+};
+
+// A map point predicted in a frame's view (ORB-SLAM2's isInFrustum results).
+struct ProjectedPoint {
+  MapPoint* point = nullptr;
+  double u = 0, v = 0;  // Ideal pixel.
+  double u_right = 0;   // Virtual right coordinate u - bf / z.
+  int level = 0;        // Predicted pyramid level.
+  double view_cos = 0;  // Cosine between viewing ray and the point's normal.
+};
+
+// Projects `point` into a frame with pose (`R_cam_world`, `t_cam_world`,
+// camera centre `centre`). True when it lies in front of the camera, inside
+// the image bounds, within its scale-invariance distances, and is seen at an
+// angle whose cosine with its normal is at least `min_view_cos`.
+bool ProjectIntoView(const SensorModel& sensor, const Eigen::Matrix3d& R_cam_world,
+                     const Eigen::Vector3d& t_cam_world, const Eigen::Vector3d& centre,
+                     MapPoint* point, double min_view_cos, ProjectedPoint* out);
+
+// Fundamental matrix F12 with x1^T F12 x2 = 0 for ideal pixels x1 in
+// keyframe 1 and x2 in keyframe 2.
+Eigen::Matrix3d FundamentalMatrix(const SensorModel& sensor, const KeyFrame& kf1,
+                                  const KeyFrame& kf2);
+
+class Matcher {
+ public:
+  // `nn_ratio`: Lowe's ratio (best < nn_ratio * second best) where a search
+  // applies it; `check_orientation`: apply the rotation histogram.
+  Matcher(const SensorModel& sensor, double nn_ratio, bool check_orientation)
+      : sensor_(sensor), nn_ratio_(nn_ratio), check_orientation_(check_orientation) {}
+
+  // Motion-model search: projects the last frame's inlier map points with
+  // current->T_cam_world() and matches each in a window of th * scale of its
+  // keypoint's level; with depth, the virtual right coordinate must agree
+  // within the same radius, and the levels searched follow the camera's
+  // forward/backward motion. Fills current->map_points where still empty.
+  // Returns the number of new matches.
+  int SearchByProjection(Frame* current, const Frame& last, double th) const;
+
+  // Local-map search: matches predicted points (ProjectIntoView) in a window of
+  // th * (2.5 px when seen head-on, else 4 px) * scale of the predicted level,
+  // on the predicted level and the one below, with the ratio test when the
+  // two best candidates share a level. Returns the number of new matches.
+  int SearchByProjection(Frame* frame, const std::vector<ProjectedPoint>& points,
+                         double th) const;
+
+  // BoW search between a keyframe's map points and a frame's keypoints (both
+  // with BoW computed). `matches` gets one map point (or nullptr) per frame
+  // keypoint. Returns the number of matches.
+  int SearchByBow(const KeyFrame& keyframe, const Frame& frame,
+                  std::vector<MapPoint*>* matches) const;
+
+  // Pairs of keypoints (index in kf1, index in kf2) without map points, in a
+  // shared vocabulary node, with distance <= kHammingLow and the kf2 keypoint
+  // within 3.84 sigma^2 of the epipolar line of the kf1 keypoint; when neither
+  // has depth, kf2 keypoints close to the epipole are skipped. With
+  // `only_with_depth`, both keypoints need depth. Each kf2 keypoint is used
+  // once. Returns pairs ordered by kf1 index.
+  int SearchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2,
+                             const Eigen::Matrix3d& F12, bool only_with_depth,
+                             std::vector<std::pair<uint32_t, uint32_t>>* pairs) const;
+
+  // Projects `points` into `keyframe` and fuses each with the best keypoint
+  // (distance <= kHammingLow, reprojection error within the chi-square bound,
+  // level in [predicted - 1, predicted]) in a window of th * scale: a keypoint
+  // that already has a map point keeps the one with more observations (the
+  // other is replaced), otherwise the point gains the observation. Returns
+  // the number of fused points.
+  int Fuse(KeyFrame* keyframe, const std::vector<MapPoint*>& points, Map* map,
+           double th = 3.0) const;
+
+ private:
+  const SensorModel& sensor_;
+  double nn_ratio_;
+  bool check_orientation_;
+};
+
+}  // namespace rrslam

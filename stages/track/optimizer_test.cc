@@ -1,0 +1,234 @@
+#include "stages/track/optimizer.h"
+
+#include <ceres/gradient_checker.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "stages/track/reprojection_error.h"
+#include "stages/track/test_scene.h"
+
+namespace rrslam {
+namespace {
+
+using testing::MakeFrame;
+using testing::RandomScene;
+using testing::RenderView;
+using testing::SmallMotion;
+using testing::TestSensor;
+using testing::ViewOptions;
+
+double TranslationError(const Rigid3d& a, const Rigid3d& b) {
+  return (a.Inverse().translation - b.Inverse().translation).norm();
+}
+
+TEST(ReprojectionErrorTest, AnalyticJacobiansMatchNumericDifferentiation) {
+  const ProjectionParameters k{500, 510, 320, 240, 40};
+  const Rigid3d T = SmallMotion(0.4, 0.5);
+  const std::array<double, 7> pose = ToPoseBlock(T);
+  const Eigen::Vector3d point(0.3, -0.2, 2.5);
+  const std::vector<const ceres::Manifold*> manifolds = {PoseManifold(), nullptr};
+  const double* parameters[] = {pose.data(), point.data()};
+  ceres::NumericDiffOptions numeric;
+
+  ReprojectionError<3> stereo(k, Eigen::Vector3d(330, 250, 320), 1 / 1.2);
+  ceres::GradientChecker::ProbeResults results;
+  ceres::GradientChecker stereo_checker(&stereo, &manifolds, numeric);
+  EXPECT_TRUE(stereo_checker.Probe(parameters, 1e-6, &results)) << results.error_log;
+
+  ReprojectionError<2> mono(k, Eigen::Vector2d(330, 250), 1.0);
+  ceres::GradientChecker mono_checker(&mono, &manifolds, numeric);
+  EXPECT_TRUE(mono_checker.Probe(parameters, 1e-6, &results)) << results.error_log;
+
+  const std::vector<const ceres::Manifold*> pose_only = {PoseManifold()};
+  PoseOnlyReprojectionError<3> fixed_point(k, Eigen::Vector3d(330, 250, 320), 1.0, point);
+  ceres::GradientChecker pose_checker(&fixed_point, &pose_only, numeric);
+  EXPECT_TRUE(pose_checker.Probe(parameters, 1e-6, &results)) << results.error_log;
+}
+
+TEST(ReprojectionErrorTest, ResidualIsWhitenedProjectionError) {
+  const ProjectionParameters k{500, 500, 320, 240, 40};
+  const std::array<double, 7> identity = ToPoseBlock(Rigid3d::Identity());
+  const Eigen::Vector3d point(0.2, -0.4, 2.0);  // Projects to (370, 140), u_R = 350.
+  ReprojectionError<3> error(k, Eigen::Vector3d(371, 138, 352), 0.5);
+  const double* parameters[] = {identity.data(), point.data()};
+  double r[3];
+  ASSERT_TRUE(error.Evaluate(parameters, r, nullptr));
+  EXPECT_NEAR(r[0], 0.5, 1e-12);
+  EXPECT_NEAR(r[1], -1.0, 1e-12);
+  EXPECT_NEAR(r[2], 1.0, 1e-12);
+  const Eigen::Vector3d behind(0, 0, -1);
+  const double* behind_parameters[] = {identity.data(), behind.data()};
+  EXPECT_FALSE(error.Evaluate(behind_parameters, r, nullptr));
+}
+
+TEST(PoseOptimizationTest, RecoversPoseWithThirtyPercentOutliers) {
+  std::mt19937 rng(21);
+  const SensorModel sensor = TestSensor();
+  const std::vector<testing::ScenePoint> scene = RandomScene(500, rng, 1.5, 4.0);
+  const Rigid3d T_true = SmallMotion(0.1, 0.3);
+  ViewOptions options;
+  options.pixel_noise = 0.5;
+  testing::SyntheticView view = RenderView(sensor, scene, T_true, rng, options);
+  // Half of the keypoints without depth: both residual kinds are exercised.
+  for (size_t i = 0; i < view.keypoints.size(); i += 2) view.keypoints[i].depth = 0;
+
+  const Rigid3d T_start = SmallMotion(0.05, 0.1) * T_true;
+  Frame frame = MakeFrame(sensor, view, 0, T_start);
+  Map map;
+  std::vector<MapPoint*> points;
+  for (const testing::ScenePoint& p : scene) points.push_back(map.CreateMapPoint(p.position, nullptr));
+  std::uniform_real_distribution<double> u(0, 1);
+  std::uniform_int_distribution<size_t> any(0, scene.size() - 1);
+  std::vector<uint8_t> wrong(frame.size(), 0);
+  for (size_t i = 0; i < frame.size(); ++i) {
+    size_t p = view.point_of[i];
+    if (u(rng) < 0.3) {
+      // A wrong point far from the right one (more than 20 px away).
+      size_t q;
+      do {
+        q = any(rng);
+      } while ((sensor.Project(T_true * scene[q].position) -
+                sensor.Project(T_true * scene[p].position))
+                   .norm() < 20);
+      p = q;
+      wrong[i] = 1;
+    }
+    frame.map_points[i] = points[p];
+  }
+  ASSERT_GT(frame.size(), 200u);
+
+  const int inliers = OptimizeFramePose(sensor, &frame);
+  EXPECT_LT(TranslationError(frame.T_cam_world(), T_true), 0.005);
+  EXPECT_LT(RotationAngle(frame.T_cam_world().rotation, T_true.rotation), 0.1 * M_PI / 180);
+  int flagged_wrong = 0, flagged_right = 0, num_wrong = 0;
+  for (size_t i = 0; i < frame.size(); ++i) {
+    num_wrong += wrong[i];
+    if (frame.outlier[i]) (wrong[i] ? flagged_wrong : flagged_right)++;
+  }
+  EXPECT_GE(flagged_wrong, 0.97 * num_wrong);
+  EXPECT_LE(flagged_right, 0.05 * (frame.size() - num_wrong));
+  EXPECT_EQ(inliers, static_cast<int>(frame.size()) - flagged_wrong - flagged_right);
+}
+
+TEST(PoseOptimizationTest, NeedsThreeMatches) {
+  std::mt19937 rng(2);
+  const SensorModel sensor = TestSensor();
+  const std::vector<testing::ScenePoint> scene = RandomScene(30, rng);
+  const testing::SyntheticView view = RenderView(sensor, scene, Rigid3d::Identity(), rng);
+  const Rigid3d T_start = SmallMotion(0.05, 0.1);
+  Frame frame = MakeFrame(sensor, view, 0, T_start);
+  Map map;
+  for (int i = 0; i < 2; ++i) {
+    frame.map_points[i] = map.CreateMapPoint(scene[view.point_of[i]].position, nullptr);
+  }
+  EXPECT_EQ(OptimizeFramePose(sensor, &frame), 0);
+  EXPECT_EQ(frame.T_cam_world().translation, T_start.translation);
+}
+
+// Keyframes along a path seeing a shared scene, each keypoint tied to the
+// map point of its scene point.
+class LocalBundleAdjustmentTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    scene_ = RandomScene(300, rng_, 2.0, 4.0);
+    for (int k = 0; k < 6; ++k) truth_.push_back(SmallMotion(0.02 * k, 0.08 * k));
+    points_.assign(scene_.size(), nullptr);
+    ViewOptions options;
+    options.pixel_noise = 0.0;
+    for (int k = 0; k < 6; ++k) {
+      testing::SyntheticView view = RenderView(sensor_, scene_, truth_[k], rng_, options);
+      // A third of the keypoints without depth.
+      for (size_t i = 0; i < view.keypoints.size(); i += 3) view.keypoints[i].depth = 0;
+      KeyFrame* kf = map_.CreateKeyFrame(MakeFrame(sensor_, view, k, truth_[k]));
+      map_.AddKeyFrame(kf);
+      keyframes_.push_back(kf);
+      for (size_t i = 0; i < view.point_of.size(); ++i) {
+        const int p = view.point_of[i];
+        if (points_[p] == nullptr) {
+          points_[p] = map_.CreateMapPoint(scene_[p].position, kf);
+          map_.AddMapPoint(points_[p]);
+        }
+        map_.AddObservation(points_[p], kf, static_cast<uint32_t>(i));
+      }
+    }
+    for (KeyFrame* kf : keyframes_) map_.UpdateConnections(kf);
+    for (MapPoint* p : points_) {
+      if (p != nullptr) p->UpdateNormalAndDepth(sensor_.pyramid);
+    }
+  }
+
+  std::mt19937 rng_{31};
+  SensorModel sensor_ = TestSensor();
+  std::vector<testing::ScenePoint> scene_;
+  std::vector<Rigid3d> truth_;
+  Map map_;
+  std::vector<KeyFrame*> keyframes_;
+  std::vector<MapPoint*> points_;
+};
+
+TEST_F(LocalBundleAdjustmentTest, ReturnsPerturbedProblemToTheTruth) {
+  std::normal_distribution<double> noise(0.0, 0.02);
+  for (size_t k = 1; k < keyframes_.size(); ++k) {
+    keyframes_[k]->SetPose(SmallMotion(0.01, 0.03) * truth_[k]);
+  }
+  for (size_t p = 0; p < points_.size(); ++p) {
+    if (points_[p] == nullptr) continue;
+    points_[p]->SetPosition(scene_[p].position + Eigen::Vector3d(noise(rng_), noise(rng_), noise(rng_)));
+  }
+  LocalBundleAdjuster adjuster(sensor_);
+  adjuster.Collect(keyframes_.back(), map_);
+  EXPECT_EQ(adjuster.stats().local_keyframes, 5);  // All but the root.
+  EXPECT_EQ(adjuster.stats().fixed_keyframes, 1);
+  adjuster.Solve();
+  adjuster.Apply(&map_);
+  EXPECT_EQ(adjuster.stats().outliers, 0);
+  for (size_t k = 0; k < keyframes_.size(); ++k) {
+    EXPECT_LT(TranslationError(keyframes_[k]->T_cam_world(), truth_[k]), 1e-4) << k;
+    EXPECT_LT(RotationAngle(keyframes_[k]->T_cam_world().rotation, truth_[k].rotation), 1e-5) << k;
+  }
+  // Every point measured by depth or by two views is back in place (a point
+  // seen once without depth is free along its ray).
+  for (size_t p = 0; p < points_.size(); ++p) {
+    if (points_[p] == nullptr || points_[p]->num_observations() < 2) continue;
+    EXPECT_LT((points_[p]->position_world() - scene_[p].position).norm(), 1e-3) << p;
+  }
+}
+
+TEST_F(LocalBundleAdjustmentTest, RemovesOutlierObservations) {
+  // Keyframe 3 observes a wrong point at 10 keypoints: its slot is re-tied to
+  // the point of a keypoint elsewhere in the image.
+  KeyFrame* kf = keyframes_[3];
+  std::vector<std::pair<MapPoint*, uint32_t>> wrong;
+  for (uint32_t i = 0; i < 10; ++i) {
+    MapPoint* right = kf->map_point(i);
+    MapPoint* other = kf->map_point(i + 100);
+    map_.EraseObservation(right, kf);
+    map_.EraseObservation(other, kf);
+    map_.AddObservation(other, kf, i);
+    wrong.emplace_back(other, i);
+  }
+  LocalBundleAdjuster adjuster(sensor_);
+  adjuster.Collect(keyframes_.back(), map_);
+  adjuster.Solve();
+  adjuster.Apply(&map_);
+  EXPECT_GE(adjuster.stats().outliers, 10);
+  for (const auto& [point, index] : wrong) {
+    EXPECT_EQ(kf->map_point(index), nullptr);
+    EXPECT_NE(point->IndexIn(kf), static_cast<int>(index));
+  }
+  for (size_t k = 0; k < keyframes_.size(); ++k) {
+    EXPECT_LT(TranslationError(keyframes_[k]->T_cam_world(), truth_[k]), 1e-3) << k;
+  }
+}
+
+TEST_F(LocalBundleAdjustmentTest, AbortStopsAfterTheFirstPass) {
+  std::atomic<bool> abort{true};
+  LocalBundleAdjuster adjuster(sensor_);
+  adjuster.Collect(keyframes_.back(), map_);
+  adjuster.Solve(&abort);
+  EXPECT_TRUE(adjuster.stats().aborted);
+}
+
+}  // namespace
+}  // namespace rrslam

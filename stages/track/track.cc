@@ -1,0 +1,423 @@
+#include "stages/track/track.h"
+
+#include <spdlog/spdlog.h>
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "common/atomic_file.h"
+#include "common/cli.h"
+#include "common/dataset.h"
+#include "common/errors.h"
+#include "common/progress.h"
+#include "common/settings.h"
+#include "common/trajectory.h"
+#include "stages/extract/features_file.h"
+#include "stages/extract/orb_extractor.h"
+#include "stages/track/frame.h"
+#include "stages/track/keyframe_database.h"
+#include "stages/track/local_mapper.h"
+#include "stages/track/map.h"
+#include "stages/track/optimizer.h"
+#include "stages/track/run_report.h"
+#include "stages/track/sensor_model.h"
+#include "stages/track/tracker.h"
+#include "stages/vocab/vocabulary.h"
+
+namespace rrslam {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MillisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// Loads the images of the frames to track on a thread of its own, a few
+// frames ahead of the tracker (loading is I/O and decoding, not tracking).
+class ImagePrefetcher {
+ public:
+  struct Images {
+    cv::Mat gray;
+    cv::Mat depth_metres;
+    double load_ms = 0;
+  };
+
+  ImagePrefetcher(const RgbdSequence& sequence, std::vector<size_t> frames,
+                  double depth_map_factor, size_t capacity = 4)
+      : sequence_(sequence),
+        frames_(std::move(frames)),
+        depth_map_factor_(depth_map_factor),
+        capacity_(capacity),
+        thread_([this] { Run(); }) {}
+
+  ~ImagePrefetcher() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+
+  // Images of the next frame, in order. Rethrows the loader's error.
+  Images Next() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    cv_.wait(lock, [this] { return !queue_.empty(); });
+    Slot slot = std::move(queue_.front());
+    queue_.pop_front();
+    lock.unlock();
+    cv_.notify_all();
+    if (slot.error) std::rethrow_exception(slot.error);
+    return std::move(slot.images);
+  }
+
+ private:
+  struct Slot {
+    Images images;
+    std::exception_ptr error;
+  };
+
+  void Run() {
+    for (size_t k = 0; k < frames_.size(); ++k) {
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        cv_.wait(lock, [this] { return stop_ || queue_.size() < capacity_; });
+        if (stop_) return;
+      }
+      Slot slot;
+      try {
+        const auto start = Clock::now();
+        const size_t i = frames_[k];
+        slot.images.gray = sequence_.LoadGray(i);
+        const cv::Mat depth_raw = sequence_.LoadDepthRaw(i);
+        CheckSameSize(slot.images.gray, depth_raw, sequence_.frame(i).depth_path);
+        depth_raw.convertTo(slot.images.depth_metres, CV_32F, 1.0 / depth_map_factor_);
+        slot.images.load_ms = MillisecondsSince(start);
+      } catch (...) {
+        slot.error = std::current_exception();
+      }
+      const bool failed = slot.error != nullptr;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        queue_.push_back(std::move(slot));
+      }
+      cv_.notify_all();
+      if (failed) return;
+    }
+  }
+
+  const RgbdSequence& sequence_;
+  const std::vector<size_t> frames_;
+  const double depth_map_factor_;
+  const size_t capacity_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<Slot> queue_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+bool Close(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(1.0, std::abs(b)); }
+
+// The settings a features file was extracted with must give the same
+// keypoints (camera, depth scale, pyramid) as the tracking settings.
+void CheckFeaturesSettings(const std::string& name, const Settings& file, const Settings& s) {
+  const std::pair<const char*, std::pair<double, double>> fields[] = {
+      {"Camera.fx", {file.fx, s.fx}},
+      {"Camera.fy", {file.fy, s.fy}},
+      {"Camera.cx", {file.cx, s.cx}},
+      {"Camera.cy", {file.cy, s.cy}},
+      {"Camera.k1", {file.distortion.k1, s.distortion.k1}},
+      {"Camera.k2", {file.distortion.k2, s.distortion.k2}},
+      {"Camera.p1", {file.distortion.p1, s.distortion.p1}},
+      {"Camera.p2", {file.distortion.p2, s.distortion.p2}},
+      {"Camera.k3", {file.distortion.k3, s.distortion.k3}},
+      {"DepthMapFactor", {file.depth_map_factor, s.depth_map_factor}},
+      {"ORBextractor.scaleFactor", {file.orb.scale_factor, s.orb.scale_factor}},
+      {"ORBextractor.nLevels", {double(file.orb.n_levels), double(s.orb.n_levels)}},
+  };
+  for (const auto& [key, values] : fields) {
+    if (!Close(values.first, values.second)) {
+      throw DataError(name + ": extracted with " + key + " = " + std::to_string(values.first) +
+                      " but the tracking settings " + s.source.string() + " give " +
+                      std::to_string(values.second));
+    }
+  }
+}
+
+// Sequence frame of every features-file frame (matched by rgb file name and
+// timestamp), in file order.
+std::vector<size_t> MatchFeatureFrames(const std::string& name, const FeaturesFile& features,
+                                       const RgbdSequence& sequence) {
+  std::map<std::string, size_t> by_file;
+  for (size_t i = 0; i < sequence.size(); ++i) {
+    by_file.emplace(sequence.frame(i).rgb_path.filename().string(), i);
+  }
+  std::vector<size_t> frames;
+  for (size_t f = 0; f < features.num_frames(); ++f) {
+    const FrameRecord& r = features.frames[f];
+    const std::string file = std::filesystem::path(r.rgb_path).filename().string();
+    auto it = by_file.find(file);
+    if (it == by_file.end() ||
+        std::abs(sequence.frame(it->second).rgb_timestamp - r.rgb_timestamp) > 1e-6) {
+      throw DataError(name + ": frame " + std::to_string(f) + " (" + r.rgb_path + " at " +
+                      std::to_string(r.rgb_timestamp) + " s) is not a frame of sequence " +
+                      sequence.dir().string());
+    }
+    if (!frames.empty() && it->second <= frames.back()) {
+      throw DataError(name + ": frame " + std::to_string(f) + " (" + r.rgb_path +
+                      ") is out of order with respect to sequence " + sequence.dir().string());
+    }
+    frames.push_back(it->second);
+  }
+  return frames;
+}
+
+double PeakRssMegabytes() {
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss / 1024.0;  // Linux reports kilobytes.
+}
+
+}  // namespace
+
+bool TrackOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (sequence.empty()) return fail("--sequence is empty; an RGB-D sequence folder is required");
+  if (settings.empty()) return fail("--settings is empty; a settings YAML file is required");
+  if (vocabulary.empty()) return fail("--vocab is empty; a vocabulary file is required");
+  if (out.empty()) return fail("--out is empty; an output folder is required");
+  if (mode != "batch" && mode != "realtime") {
+    return fail("--mode = " + mode + "; must be batch or realtime");
+  }
+  if (max_frames < 0 || max_frames == 1) {
+    return fail("--max-frames = " + std::to_string(max_frames) + "; must be 0 (all) or >= 2");
+  }
+  if (extraction_threads < 1 || extraction_threads > 16) {
+    return fail("--extraction-threads = " + std::to_string(extraction_threads) +
+                "; must be in [1, 16]");
+  }
+  return true;
+}
+
+nlohmann::json TrackOptions::ToJson() const {
+  return {{"sequence", sequence.string()},
+          {"settings", settings.string()},
+          {"vocabulary", vocabulary.string()},
+          {"features", features.string()},
+          {"associations", associations.string()},
+          {"out", out.string()},
+          {"mode", mode},
+          {"max_frames", max_frames},
+          {"pace", pace},
+          {"extraction_threads", extraction_threads}};
+}
+
+TrackSummary RunTrack(const TrackOptions& options) {
+  const auto run_start = Clock::now();
+  std::string why;
+  if (!options.Check(&why)) throw UsageError(why);
+  const bool realtime = options.mode == "realtime";
+
+  // Inputs.
+  const Settings settings = ReadSettings(options.settings);
+  SequenceOptions sequence_options;
+  sequence_options.associations = options.associations;
+  const RgbdSequence sequence = RgbdSequence::Open(options.sequence, sequence_options);
+  std::vector<size_t> frames;
+  FeaturesFile features;
+  const bool use_features = !options.features.empty();
+  if (use_features) {
+    features = ReadFeaturesFile(options.features);
+    const std::string name = options.features.string();
+    if (features.settings_yaml.empty()) {
+      throw DataError(name + ": records no settings; cannot check it against " +
+                      options.settings.string());
+    }
+    CheckFeaturesSettings(name, ParseSettings(features.settings_yaml, name + " (settings)"),
+                          settings);
+    frames = MatchFeatureFrames(name, features, sequence);
+  } else {
+    for (size_t i = 0; i < sequence.size(); ++i) frames.push_back(i);
+  }
+  if (options.max_frames > 0 && frames.size() > static_cast<size_t>(options.max_frames)) {
+    frames.resize(options.max_frames);
+  }
+  if (frames.size() < 2) {
+    throw DataError((use_features ? options.features : options.sequence).string() + ": " +
+                    std::to_string(frames.size()) +
+                    " frame(s) to track; tracking needs at least 2");
+  }
+  const Vocabulary vocabulary = Vocabulary::Load(options.vocabulary);
+  if (vocabulary.empty()) throw DataError(options.vocabulary.string() + ": vocabulary has no words");
+
+  // The image size comes from the settings or from the first image.
+  int width = settings.width, height = settings.height;
+  if (width <= 0 || height <= 0) {
+    const cv::Mat first = LoadGrayImage(sequence.frame(frames.front()).rgb_path);
+    width = first.cols;
+    height = first.rows;
+  }
+  const SensorModel sensor(settings, width, height);
+
+  AtomicOutput output(options.out, AtomicOutput::Kind::kDirectory);
+
+  spdlog::info("track: {} frames of {} ({} mode), vocabulary {}", frames.size(),
+               options.sequence.string(), options.mode, vocabulary.Identity());
+
+  // The SLAM objects.
+  Map map;
+  KeyFrameDatabase database(vocabulary);
+  TrackerOptions tracker_options;
+  tracker_options.max_keyframe_gap = std::max(1, static_cast<int>(std::lround(settings.fps)));
+  LocalMapper mapper(sensor, vocabulary, &map, &database, LocalMapperOptions{});
+  Tracker tracker(sensor, vocabulary, &map, &mapper, tracker_options);
+  if (realtime) mapper.Start();
+
+  std::unique_ptr<ImagePrefetcher> prefetcher;
+  std::unique_ptr<OrbExtractor> extractor;
+  if (!use_features) {
+    prefetcher = std::make_unique<ImagePrefetcher>(sequence, frames, settings.depth_map_factor);
+    extractor = std::make_unique<OrbExtractor>(settings.orb, options.extraction_threads);
+  }
+
+  std::vector<double> tracking_ms, extraction_ms, loading_ms;
+  tracking_ms.reserve(frames.size());
+  ProgressBar progress("track", frames.size(), "frame");
+  const auto loop_start = Clock::now();
+  const double first_timestamp = sequence.frame(frames.front()).rgb_timestamp;
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const size_t index = frames[k];
+    const double timestamp = sequence.frame(index).rgb_timestamp;
+    std::vector<Keypoint> keypoints;
+    std::vector<OrbDescriptor> descriptors;
+    cv::Mat gray, depth;
+    if (use_features) {
+      const auto kps = features.FrameKeypoints(k);
+      const auto ds = features.FrameDescriptors(k);
+      keypoints.assign(kps.begin(), kps.end());
+      descriptors.assign(ds.begin(), ds.end());
+    } else {
+      ImagePrefetcher::Images images = prefetcher->Next();
+      loading_ms.push_back(images.load_ms);
+      gray = std::move(images.gray);
+      depth = std::move(images.depth_metres);
+    }
+    if (realtime && options.pace) {
+      std::this_thread::sleep_until(
+          loop_start + std::chrono::duration_cast<Clock::duration>(
+                           std::chrono::duration<double>(timestamp - first_timestamp)));
+    }
+
+    const auto start = Clock::now();
+    if (!use_features) {
+      extractor->Extract(gray, &keypoints, &descriptors);
+      FinishKeypoints(sensor.camera, depth, &keypoints);
+      extraction_ms.push_back(MillisecondsSince(start));
+    }
+    Frame frame(k, timestamp,
+                BuildFrameFeatures(sensor, std::move(keypoints), std::move(descriptors)));
+    bool new_keyframe = false;
+    tracker.Track(std::move(frame), &new_keyframe);
+    tracking_ms.push_back(MillisecondsSince(start));
+    if (!realtime && new_keyframe) mapper.ProcessQueued();
+    progress.Advance();
+  }
+  if (realtime) mapper.Stop();
+  mapper.ProcessQueued();  // Nothing in realtime mode after Stop(); none left in batch.
+  progress.Finish();
+  const double loop_s = std::chrono::duration<double>(Clock::now() - loop_start).count();
+
+  if (tracker.state() == Tracker::State::kNotInitialized) {
+    throw AlgorithmError(options.sequence.string() + ": tracking never initialized: no frame has " +
+                         std::to_string(tracker_options.min_initial_points) +
+                         " keypoints with depth (is the depth all zero?)");
+  }
+
+  // Outputs.
+  TrackSummary summary;
+  summary.frames = frames.size();
+  for (const TrackedFrame& r : tracker.records()) {
+    if (r.tracked) {
+      ++summary.tracked;
+    } else {
+      summary.lost_timestamps.push_back(r.timestamp);
+    }
+  }
+  summary.lost = summary.frames - summary.tracked;
+  summary.keyframes = map.num_keyframes();
+  summary.map_points = map.num_map_points();
+
+  const Trajectory camera_trajectory = ResolveCameraTrajectory(tracker.records());
+  const Trajectory keyframe_trajectory = KeyFrameTrajectory(map);
+  const auto write = [&](const std::string& file, const std::string& content) {
+    std::ofstream out(output.temp_path() / file, std::ios::binary);
+    out << content;
+    out.flush();
+    if (!out) throw CantCreateError((options.out / file).string() + ": cannot write");
+  };
+  write("CameraTrajectory.txt", FormatTumTrajectory(camera_trajectory));
+  write("KeyFrameTrajectory.txt", FormatTumTrajectory(keyframe_trajectory));
+
+  const LocalMappingCounters& counters = mapper.counters();
+  const TimingSummary tracking = SummarizeTimings(tracking_ms);
+  nlohmann::json report;
+  report["producer"] = Producer("track");
+  report["options"] = options.ToJson();
+  report["vocabulary"] = vocabulary.Identity();
+  report["settings"] = settings.source.string();
+  report["counts"] = {{"frames", summary.frames},
+                      {"tracked", summary.tracked},
+                      {"lost", summary.lost},
+                      {"keyframes", summary.keyframes},
+                      {"map_points", summary.map_points},
+                      {"keyframes_created", map.num_created_keyframes()},
+                      {"keyframes_culled", counters.culled_keyframes},
+                      {"resumed", tracker.resumed()}};
+  report["lost_timestamps"] = summary.lost_timestamps;
+  report["local_mapping"] = {{"keyframes_processed", counters.keyframes},
+                             {"triangulated_points", counters.triangulated_points},
+                             {"fused_points", counters.fused_points},
+                             {"culled_recent_points", counters.culled_points},
+                             {"bundle_adjustments", counters.bundle_adjustments},
+                             {"aborted_bundle_adjustments", counters.aborted_bundle_adjustments},
+                             {"max_queue", counters.max_queue}};
+  report["timings"] = {
+      {"tracking", ToJson(tracking)},
+      {"extraction", ToJson(SummarizeTimings(extraction_ms))},
+      {"local_mapping", ToJson(SummarizeTimings(counters.keyframe_ms))},
+      {"image_loading", ToJson(SummarizeTimings(loading_ms))},
+      {"loop_s", loop_s},
+      {"total_s", std::chrono::duration<double>(Clock::now() - run_start).count()},
+      {"frame_rate_hz", frames.size() / loop_s}};
+  report["peak_rss_mb"] = PeakRssMegabytes();
+  write("run.json", report.dump(2) + "\n");
+  output.Commit();
+
+  if (summary.lost > 0) {
+    spdlog::warn("track: {} of {} frames lost (first at {:.6f} s); they are left out of {}",
+                 summary.lost, summary.frames, summary.lost_timestamps.front(),
+                 (options.out / "CameraTrajectory.txt").string());
+  }
+  spdlog::info(
+      "track: {}/{} frames tracked, {} keyframes, {} map points; tracking median {:.2f} ms, "
+      "p95 {:.2f} ms; {:.1f} frames/s",
+      summary.tracked, summary.frames, summary.keyframes, summary.map_points, tracking.median,
+      tracking.p95, frames.size() / loop_s);
+  return summary;
+}
+
+}  // namespace rrslam

@@ -1,0 +1,71 @@
+// The `track` stage: RGB-D SLAM front end (tracking and local mapping) over a
+// TUM-layout sequence, writing the camera trajectory, the keyframe trajectory
+// and a run report.
+//
+// Outputs, in the folder --out (written as a whole: a temporary folder
+// renamed at the end, so a failed run leaves no partial trajectory):
+//   CameraTrajectory.txt    pose of every tracked frame (TUM format)
+//   KeyFrameTrajectory.txt  pose of every keyframe in the final map (TUM format)
+//   run.json                counts, lost frames, vocabulary identity, options,
+//                           producer, timings (see docs/track.md)
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace rrslam {
+
+struct TrackOptions {
+  // TUM RGB-D sequence folder (rgb.txt + depth.txt, or associations.txt). Required.
+  std::filesystem::path sequence;
+  // ORB-SLAM2 RGB-D settings YAML (common/settings.h). Required.
+  std::filesystem::path settings;
+  // Vocabulary: rrslam binary (.rrv) or DBoW2 text (ORBvoc.txt). Required.
+  std::filesystem::path vocabulary;
+  // Output folder; replaced as a whole when it exists. Required.
+  std::filesystem::path out;
+  // Features file from rrslam-extract (optional). When given, keypoints and
+  // descriptors come from it instead of the images; its frames must be
+  // frames of the sequence and its settings must agree with --settings.
+  std::filesystem::path features;
+  // Associations file, absolute or relative to the sequence (optional; as
+  // rrslam-extract's --associations).
+  std::filesystem::path associations;
+  // "batch": local mapping runs in step after each keyframe (bit-identical
+  // output run to run); "realtime": local mapping runs in its own thread.
+  std::string mode = "batch";
+  // Track at most this many frames (0 = all); otherwise >= 2.
+  int max_frames = 0;
+  // Realtime mode only: hand frames to the tracker no faster than their
+  // timestamps (as a live camera would); batch mode ignores it.
+  bool pace = false;
+  // Threads of the ORB extractor (pyramid levels in parallel); in [1, 16].
+  // Does not change the result.
+  int extraction_threads = 1;
+
+  // Names the first violated constraint ("--mode = x; must be batch or realtime").
+  bool Check(std::string* why) const;
+  // The options recorded in run.json.
+  nlohmann::json ToJson() const;
+};
+
+// Counts of a finished run (also in run.json).
+struct TrackSummary {
+  size_t frames = 0;
+  size_t tracked = 0;
+  size_t lost = 0;
+  size_t keyframes = 0;
+  size_t map_points = 0;
+  std::vector<double> lost_timestamps;
+};
+
+// Runs the stage. Throws UsageError (bad options), NoInputError (missing
+// inputs), DataError (malformed or inconsistent inputs: a sequence with fewer
+// than 2 frames, settings without intrinsics, a vocabulary that is not an ORB
+// vocabulary, a features file of other frames or settings), AlgorithmError
+// (tracking never initialized, e.g. depth all zero), CantCreateError.
+TrackSummary RunTrack(const TrackOptions& options);
+
+}  // namespace rrslam

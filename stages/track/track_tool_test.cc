@@ -1,0 +1,188 @@
+// rrslam-track on bad inputs: exit codes, one-line messages naming the file,
+// and no output left behind.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "common/settings.h"
+#include "common/testing.h"
+#include "stages/extract/features_file.h"
+#include "stages/track/test_scene.h"
+
+namespace rrslam {
+namespace {
+
+namespace fs = std::filesystem;
+using ::rrslam::testing::RunTool;
+using ::rrslam::testing::TempDir;
+using ::rrslam::testing::WriteTextFile;
+
+// A TUM-layout sequence of `frames` frames of a blurred random texture, with
+// constant depth `depth_raw` (depth units; 0 = none), 640 x 480.
+void WriteSequence(const fs::path& dir, int frames, uint16_t depth_raw) {
+  fs::create_directories(dir / "rgb");
+  fs::create_directories(dir / "depth");
+  cv::Mat texture(480, 640, CV_8UC3);
+  cv::RNG rng(5);
+  rng.fill(texture, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(texture, texture, cv::Size(5, 5), 1.5);
+  const cv::Mat depth(480, 640, CV_16UC1, cv::Scalar(depth_raw));
+  std::ofstream rgb_list(dir / "rgb.txt"), depth_list(dir / "depth.txt");
+  rgb_list << "# timestamp filename\n";
+  depth_list << "# timestamp filename\n";
+  for (int i = 0; i < frames; ++i) {
+    const std::string name = std::to_string(i) + ".png";
+    cv::imwrite((dir / "rgb" / name).string(), texture);
+    cv::imwrite((dir / "depth" / name).string(), depth);
+    rgb_list << 100 + 0.05 * i << " rgb/" << name << "\n";
+    depth_list << 100 + 0.05 * i << " depth/" << name << "\n";
+  }
+  WriteSettings(dir / "settings.yaml", testing::TestSettings());
+}
+
+class TrackToolTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    WriteSequence(dir_ / "seq", 3, 10000);
+    WriteTextFile(dir_ / "voc.txt", testing::HundredWordVocabularyText());
+  }
+
+  // Runs rrslam-track with the given overrides of the default arguments.
+  ::rrslam::testing::CommandResult Track(const std::string& sequence, const std::string& settings,
+                                         const std::string& vocab, const std::string& extra = "") {
+    return RunTool("track", "--sequence " + sequence + " --settings " + settings + " --vocab " +
+                                vocab + " --out " + out().string() + " -q " + extra);
+  }
+  fs::path out() const { return dir_ / "out"; }
+  std::string Seq() const { return (dir_ / "seq").string(); }
+  std::string SettingsFile() const { return (dir_ / "seq" / "settings.yaml").string(); }
+  std::string Voc() const { return (dir_ / "voc.txt").string(); }
+
+  TempDir dir_;
+};
+
+TEST_F(TrackToolTest, BadOptionsAreUsageErrors) {
+  EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--mode fast").exit_code, 64);
+  EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--max-frames 1").exit_code, 64);
+  EXPECT_EQ(RunTool("track", "--sequence " + Seq()).exit_code, 64);  // Missing flags.
+  EXPECT_FALSE(fs::exists(out()));
+  const auto help = RunTool("track", "--help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.output.find("--mode TEXT=batch"), std::string::npos) << help.output;
+  EXPECT_NE(help.output.find("75"), std::string::npos);
+}
+
+TEST_F(TrackToolTest, MissingInputsExit66) {
+  EXPECT_EQ(Track((dir_ / "nowhere").string(), SettingsFile(), Voc()).exit_code, 66);
+  EXPECT_EQ(Track(Seq(), (dir_ / "none.yaml").string(), Voc()).exit_code, 66);
+  const auto r = Track(Seq(), SettingsFile(), (dir_ / "none.rrv").string());
+  EXPECT_EQ(r.exit_code, 66);
+  EXPECT_NE(r.output.find("none.rrv"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out()));
+}
+
+TEST_F(TrackToolTest, SettingsWithoutIntrinsicsExit65) {
+  WriteTextFile(dir_ / "bad.yaml", "%YAML:1.0\nCamera.fx: 500.0\nCamera.fy: 500.0\n");
+  const auto r = Track(Seq(), (dir_ / "bad.yaml").string(), Voc());
+  EXPECT_EQ(r.exit_code, 65);
+  EXPECT_NE(r.output.find("Camera.cx"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out()));
+}
+
+TEST_F(TrackToolTest, EmptyOrTooShortSequencesExit65) {
+  WriteSequence(dir_ / "one", 1, 10000);
+  const auto r = Track((dir_ / "one").string(), SettingsFile(), Voc());
+  EXPECT_EQ(r.exit_code, 65);
+  EXPECT_NE(r.output.find("at least 2"), std::string::npos) << r.output;
+  fs::create_directories(dir_ / "empty");
+  WriteTextFile(dir_ / "empty" / "rgb.txt", "# nothing\n");
+  WriteTextFile(dir_ / "empty" / "depth.txt", "# nothing\n");
+  EXPECT_EQ(Track((dir_ / "empty").string(), SettingsFile(), Voc()).exit_code, 65);
+  EXPECT_FALSE(fs::exists(out()));
+}
+
+TEST_F(TrackToolTest, VocabularyOfAnotherDescriptorExit65) {
+  // A DBoW2 text vocabulary of 64-float (SURF) descriptors is not an ORB one.
+  std::string surf = "2 1  0 0\n";
+  for (int n = 0; n < 2; ++n) {
+    surf += "0 1 ";
+    for (int i = 0; i < 64; ++i) surf += "0.125 ";
+    surf += " 1\n";
+  }
+  WriteTextFile(dir_ / "surf.txt", surf);
+  const auto r = Track(Seq(), SettingsFile(), (dir_ / "surf.txt").string());
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("surf.txt"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out()));
+}
+
+TEST_F(TrackToolTest, AllZeroDepthCannotInitializeExit75) {
+  WriteSequence(dir_ / "nodepth", 3, 0);
+  const auto r = Track((dir_ / "nodepth").string(), SettingsFile(), Voc());
+  EXPECT_EQ(r.exit_code, 75) << r.output;
+  EXPECT_NE(r.output.find("never initialized"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out()));
+  EXPECT_FALSE(fs::exists(dir_ / "out.tmp"));
+}
+
+TEST_F(TrackToolTest, FailureKeepsAnExistingOutputFolder) {
+  fs::create_directories(out());
+  WriteTextFile(out() / "CameraTrajectory.txt", "previous\n");
+  WriteSequence(dir_ / "nodepth", 3, 0);
+  EXPECT_EQ(Track((dir_ / "nodepth").string(), SettingsFile(), Voc()).exit_code, 75);
+  std::ifstream in(out() / "CameraTrajectory.txt");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "previous");
+}
+
+TEST_F(TrackToolTest, FeaturesFileMustMatchSequenceAndSettings) {
+  // Three frames of the sequence with a few keypoints each.
+  auto write_features = [&](const fs::path& path, const std::string& settings_yaml,
+                            const std::string& first_rgb) {
+    FeaturesFile features;
+    features.settings_yaml = settings_yaml;
+    std::mt19937 rng(1);
+    for (int i = 0; i < 3; ++i) {
+      FrameRecord record;
+      record.rgb_timestamp = 100 + 0.05 * i;
+      record.depth_timestamp = record.rgb_timestamp;
+      record.rgb_path = i == 0 ? first_rgb : (dir_ / "seq" / "rgb" / (std::to_string(i) + ".png")).string();
+      record.depth_path = (dir_ / "seq" / "depth" / (std::to_string(i) + ".png")).string();
+      std::vector<Keypoint> kps(10);
+      std::vector<OrbDescriptor> ds(10);
+      for (auto& d : ds) d = testing::RandomDescriptor(rng);
+      features.AddFrame(record, kps, ds);
+    }
+    WriteFeaturesFile(path, features, "test", nlohmann::json::object());
+  };
+  const std::string yaml = FormatSettings(testing::TestSettings());
+  const std::string rgb0 = (dir_ / "seq" / "rgb" / "0.png").string();
+
+  write_features(dir_ / "other_frames.h5", yaml, (dir_ / "seq" / "rgb" / "7.png").string());
+  auto r = Track(Seq(), SettingsFile(), Voc(), "--features " + (dir_ / "other_frames.h5").string());
+  EXPECT_EQ(r.exit_code, 65);
+  EXPECT_NE(r.output.find("is not a frame of sequence"), std::string::npos) << r.output;
+
+  Settings other = testing::TestSettings();
+  other.fx = 520;
+  write_features(dir_ / "other_settings.h5", FormatSettings(other), rgb0);
+  r = Track(Seq(), SettingsFile(), Voc(), "--features " + (dir_ / "other_settings.h5").string());
+  EXPECT_EQ(r.exit_code, 65);
+  EXPECT_NE(r.output.find("Camera.fx"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out()));
+
+  // Matching frames and settings are accepted (tracking then fails to
+  // initialize: ten keypoints without depth).
+  write_features(dir_ / "good.h5", yaml, rgb0);
+  r = Track(Seq(), SettingsFile(), Voc(), "--features " + (dir_ / "good.h5").string());
+  EXPECT_EQ(r.exit_code, 75) << r.output;
+}
+
+}  // namespace
+}  // namespace rrslam

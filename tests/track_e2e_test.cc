@@ -1,0 +1,137 @@
+// End to end: rrslam-synth renders a short room loop; a vocabulary is trained
+// on it (rrslam-extract -> rrslam-cluster -> rrslam-vocab build); rrslam-track
+// tracks it in batch mode (twice, from images, and once from the features
+// file) and in realtime mode; rrslam-eval ate scores the trajectories.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "common/testing.h"
+
+namespace rrslam {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Quote(const fs::path& p) { return "'" + p.string() + "'"; }
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+constexpr int kFrames = 120;
+
+class TrackPipelineTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir();
+    auto run = [](const std::string& stage, const std::string& args) {
+      const auto r = testing::RunTool(stage, "--quiet " + args);
+      ASSERT_EQ(r.exit_code, 0) << "rrslam-" << stage << " " << args << "\n" << r.output;
+    };
+    // 320 x 240 keeps rendering and extraction quick.
+    run("synth", "--out " + Quote(seq()) + " --trajectory loop --frames " +
+                     std::to_string(kFrames) + " --seed 3 --width 320 --height 240");
+    run("extract", "--sequence " + Quote(seq()) + " --settings " + Quote(settings()) +
+                       " --out " + Quote(features()));
+    run("cluster", "--features " + Quote(features()) + " --out " + Quote(path("tree.h5")) +
+                       " --k 8 -L 3");
+    run("vocab", "build --tree " + Quote(path("tree.h5")) + " --features " + Quote(features()) +
+                     " --out " + Quote(vocab()));
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static fs::path path(const std::string& name) { return dir_->path() / name; }
+  static fs::path seq() { return path("room"); }
+  static fs::path settings() { return seq() / "settings.yaml"; }
+  static fs::path features() { return path("room.h5"); }
+  static fs::path vocab() { return path("room.rrv"); }
+
+  static testing::CommandResult Track(const fs::path& out, const std::string& extra = "") {
+    return testing::RunTool("track", "--quiet --sequence " + Quote(seq()) + " --settings " +
+                                         Quote(settings()) + " --vocab " + Quote(vocab()) +
+                                         " --out " + Quote(out) + " " + extra);
+  }
+  // ATE RMSE (metres) of a trajectory against the ground truth.
+  static double AteRmse(const fs::path& trajectory) {
+    const auto r = testing::RunTool("eval", "ate --json --gt " + Quote(seq() / "groundtruth.txt") +
+                                                " --est " + Quote(trajectory));
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    const size_t brace = r.output.find('{');
+    if (brace == std::string::npos) return 1e9;
+    const nlohmann::json j = nlohmann::json::parse(r.output.substr(brace, r.output.rfind('}') - brace + 1));
+    EXPECT_EQ(j.at("pairs").get<int>(), kFrames);
+    return j.at("ate_m").at("rmse").get<double>();
+  }
+
+  static testing::TempDir* dir_;
+};
+testing::TempDir* TrackPipelineTest::dir_ = nullptr;
+
+TEST_F(TrackPipelineTest, BatchModeIsAccurateAndBitIdentical) {
+  const auto first = Track(path("batch1"));
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const auto second = Track(path("batch2"));
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+
+  const std::string trajectory = ReadText(path("batch1") / "CameraTrajectory.txt");
+  EXPECT_EQ(trajectory, ReadText(path("batch2") / "CameraTrajectory.txt"));
+  EXPECT_EQ(ReadText(path("batch1") / "KeyFrameTrajectory.txt"),
+            ReadText(path("batch2") / "KeyFrameTrajectory.txt"));
+
+  // Every frame tracked, in TUM format, and accurate.
+  EXPECT_EQ(std::count(trajectory.begin(), trajectory.end(), '\n'), kFrames);
+  EXPECT_LT(AteRmse(path("batch1") / "CameraTrajectory.txt"), 0.02);
+
+  const nlohmann::json run = nlohmann::json::parse(ReadText(path("batch1") / "run.json"));
+  EXPECT_EQ(run.at("counts").at("frames").get<int>(), kFrames);
+  EXPECT_EQ(run.at("counts").at("tracked").get<int>(), kFrames);
+  EXPECT_EQ(run.at("counts").at("lost").get<int>(), 0);
+  EXPECT_GT(run.at("counts").at("keyframes").get<int>(), 1);
+  EXPECT_GT(run.at("counts").at("map_points").get<int>(), 100);
+  EXPECT_TRUE(run.at("lost_timestamps").empty());
+  EXPECT_NE(run.at("vocabulary").get<std::string>().find("room.rrv"), std::string::npos);
+  EXPECT_EQ(run.at("options").at("mode").get<std::string>(), "batch");
+  EXPECT_EQ(run.at("producer").get<std::string>().rfind("rrslam-track ", 0), 0u);
+  EXPECT_EQ(run.at("timings").at("tracking").at("count").get<int>(), kFrames);
+  EXPECT_GT(run.at("timings").at("tracking").at("median_ms").get<double>(), 0.0);
+  EXPECT_GT(run.at("timings").at("local_mapping").at("count").get<int>(), 0);
+  const std::string keyframes = ReadText(path("batch1") / "KeyFrameTrajectory.txt");
+  EXPECT_EQ(std::count(keyframes.begin(), keyframes.end(), '\n'),
+            run.at("counts").at("keyframes").get<int>());
+}
+
+TEST_F(TrackPipelineTest, FeaturesFileGivesTheSameTrajectoryAsImages) {
+  ASSERT_EQ(Track(path("images")).exit_code, 0);
+  const auto r = Track(path("cached"), "--features " + Quote(features()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(ReadText(path("images") / "CameraTrajectory.txt"),
+            ReadText(path("cached") / "CameraTrajectory.txt"));
+}
+
+TEST_F(TrackPipelineTest, RealtimeModeTracksEveryFrame) {
+  const auto r = Track(path("realtime"), "--mode realtime");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json run = nlohmann::json::parse(ReadText(path("realtime") / "run.json"));
+  EXPECT_EQ(run.at("counts").at("tracked").get<int>(), kFrames);
+  EXPECT_LT(AteRmse(path("realtime") / "CameraTrajectory.txt"), 0.02);
+}
+
+TEST_F(TrackPipelineTest, MaxFramesTracksAPrefix) {
+  const auto r = Track(path("prefix"), "--max-frames 30");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string prefix = ReadText(path("prefix") / "CameraTrajectory.txt");
+  EXPECT_EQ(std::count(prefix.begin(), prefix.end(), '\n'), 30);
+}
+
+}  // namespace
+}  // namespace rrslam
