@@ -256,7 +256,7 @@ int main(int argc, char** argv) {
   }
 
   std::ostringstream text;
-  text << "# bench-track: rrslam-track against the goals of issue 4\n";
+  text << "# bench-track: rrslam-track against the goals of issue 4 (command: make bench-track)\n";
   text << "# machine: " << machine << "\n";
   text << "# data: " << data.string() << " (bench/track/bench.mk)\n";
   text << report.Text();
