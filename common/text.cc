@@ -55,4 +55,17 @@ long long ParseInteger(std::string_view field, const std::string& source, int li
   return value;
 }
 
+std::string ShellQuote(std::string_view text) {
+  std::string quoted(1, '\'');
+  for (const char c : text) {
+    if (c == '\'') {
+      quoted += "'\\''";
+    } else {
+      quoted += c;
+    }
+  }
+  quoted += '\'';
+  return quoted;
+}
+
 }  // namespace rrslam

@@ -22,4 +22,8 @@ void ForEachDataLine(
 double ParseDouble(std::string_view field, const std::string& source, int line);
 long long ParseInteger(std::string_view field, const std::string& source, int line);
 
+// `text` as one POSIX shell word: in single quotes, each embedded single quote
+// written as '\'' (for command lines handed to std::system / popen).
+std::string ShellQuote(std::string_view text);
+
 }  // namespace rrslam

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include "common/errors.h"
 
 namespace rrslam {
@@ -35,6 +37,19 @@ TEST(ParseNumbers, StrictWholeField) {
   } catch (const DataError& e) {
     EXPECT_STREQ(e.what(), "list.txt line 7: 'zz' is not a number");
   }
+}
+
+TEST(ShellQuoteTest, QuotesOneWordThroughTheShell) {
+  EXPECT_EQ(ShellQuote("a b"), "'a b'");
+  EXPECT_EQ(ShellQuote("it's"), "'it'\\''s'");
+  // The shell gives back the exact text, spaces, quotes and $ included.
+  const std::string text = "x 'y' $HOME \"z\"";
+  FILE* pipe = popen(("printf %s " + ShellQuote(text)).c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  char buffer[128] = {};
+  const size_t n = fread(buffer, 1, sizeof(buffer) - 1, pipe);
+  pclose(pipe);
+  EXPECT_EQ(std::string(buffer, n), text);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "common/text.h"
 #include "common/atomic_file.h"
 #include "common/formats.h"
 #include "common/h5io.h"
@@ -19,12 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // Single-quoted for the shell (test paths hold no quotes).
-std::string Quote(const fs::path& p) {
-  std::string quoted(1, '\'');
-  quoted += p.string();
-  quoted += '\'';
-  return quoted;
-}
+std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
 
 struct FeaturesSummary {
   H5FormatInfo info;

@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "common/atomic_file.h"
+#include "common/text.h"
 #include "common/testing.h"
 
 namespace rrslam {
@@ -17,14 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string Quote(const fs::path& p) { return "'" + p.string() + "'"; }
-
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
 
 constexpr int kFrames = 120;
 
@@ -83,16 +78,16 @@ TEST_F(TrackPipelineTest, BatchModeIsAccurateAndBitIdentical) {
   const auto second = Track(path("batch2"));
   ASSERT_EQ(second.exit_code, 0) << second.output;
 
-  const std::string trajectory = ReadText(path("batch1") / "CameraTrajectory.txt");
-  EXPECT_EQ(trajectory, ReadText(path("batch2") / "CameraTrajectory.txt"));
-  EXPECT_EQ(ReadText(path("batch1") / "KeyFrameTrajectory.txt"),
-            ReadText(path("batch2") / "KeyFrameTrajectory.txt"));
+  const std::string trajectory = ReadFileToString(path("batch1") / "CameraTrajectory.txt");
+  EXPECT_EQ(trajectory, ReadFileToString(path("batch2") / "CameraTrajectory.txt"));
+  EXPECT_EQ(ReadFileToString(path("batch1") / "KeyFrameTrajectory.txt"),
+            ReadFileToString(path("batch2") / "KeyFrameTrajectory.txt"));
 
   // Every frame tracked, in TUM format, and accurate.
   EXPECT_EQ(std::count(trajectory.begin(), trajectory.end(), '\n'), kFrames);
   EXPECT_LT(AteRmse(path("batch1") / "CameraTrajectory.txt"), 0.02);
 
-  const nlohmann::json run = nlohmann::json::parse(ReadText(path("batch1") / "run.json"));
+  const nlohmann::json run = nlohmann::json::parse(ReadFileToString(path("batch1") / "run.json"));
   EXPECT_EQ(run.at("counts").at("frames").get<int>(), kFrames);
   EXPECT_EQ(run.at("counts").at("tracked").get<int>(), kFrames);
   EXPECT_EQ(run.at("counts").at("lost").get<int>(), 0);
@@ -105,7 +100,7 @@ TEST_F(TrackPipelineTest, BatchModeIsAccurateAndBitIdentical) {
   EXPECT_EQ(run.at("timings").at("tracking").at("count").get<int>(), kFrames);
   EXPECT_GT(run.at("timings").at("tracking").at("median_ms").get<double>(), 0.0);
   EXPECT_GT(run.at("timings").at("local_mapping").at("count").get<int>(), 0);
-  const std::string keyframes = ReadText(path("batch1") / "KeyFrameTrajectory.txt");
+  const std::string keyframes = ReadFileToString(path("batch1") / "KeyFrameTrajectory.txt");
   EXPECT_EQ(std::count(keyframes.begin(), keyframes.end(), '\n'),
             run.at("counts").at("keyframes").get<int>());
 }
@@ -114,14 +109,14 @@ TEST_F(TrackPipelineTest, FeaturesFileGivesTheSameTrajectoryAsImages) {
   ASSERT_EQ(Track(path("images")).exit_code, 0);
   const auto r = Track(path("cached"), "--features " + Quote(features()));
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_EQ(ReadText(path("images") / "CameraTrajectory.txt"),
-            ReadText(path("cached") / "CameraTrajectory.txt"));
+  EXPECT_EQ(ReadFileToString(path("images") / "CameraTrajectory.txt"),
+            ReadFileToString(path("cached") / "CameraTrajectory.txt"));
 }
 
 TEST_F(TrackPipelineTest, RealtimeModeTracksEveryFrame) {
   const auto r = Track(path("realtime"), "--mode realtime");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const nlohmann::json run = nlohmann::json::parse(ReadText(path("realtime") / "run.json"));
+  const nlohmann::json run = nlohmann::json::parse(ReadFileToString(path("realtime") / "run.json"));
   EXPECT_EQ(run.at("counts").at("tracked").get<int>(), kFrames);
   EXPECT_LT(AteRmse(path("realtime") / "CameraTrajectory.txt"), 0.02);
 }
@@ -129,7 +124,7 @@ TEST_F(TrackPipelineTest, RealtimeModeTracksEveryFrame) {
 TEST_F(TrackPipelineTest, MaxFramesTracksAPrefix) {
   const auto r = Track(path("prefix"), "--max-frames 30");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const std::string prefix = ReadText(path("prefix") / "CameraTrajectory.txt");
+  const std::string prefix = ReadFileToString(path("prefix") / "CameraTrajectory.txt");
   EXPECT_EQ(std::count(prefix.begin(), prefix.end(), '\n'), 30);
 }
 

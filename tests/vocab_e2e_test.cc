@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "common/atomic_file.h"
+#include "common/text.h"
 #include "common/testing.h"
 
 namespace rrslam {
@@ -21,18 +23,7 @@ fs::path SourceDir() {
   return fs::path(__FILE__).parent_path().parent_path();
 }
 
-std::string Quote(const fs::path& p) {
-  std::string quoted(1, '\'');
-  quoted.append(p.string()).push_back('\'');
-  return quoted;
-}
-
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
 
 constexpr int kFrames = 48;
 
@@ -114,7 +105,7 @@ TEST_F(VocabPipelineTest, TrainsQueriesAndRerunsNothing) {
                                           Quote(dir_->path() / "back.txt"))
                 .exit_code,
             0);
-  EXPECT_EQ(ReadText(room / "voc.txt"), ReadText(dir_->path() / "back.txt"));
+  EXPECT_EQ(ReadFileToString(room / "voc.txt"), ReadFileToString(dir_->path() / "back.txt"));
 
   // Each query frame scores highest against itself, then against its
   // neighbours on the loop; frames on the far side of the room score lower.

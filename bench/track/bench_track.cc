@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include "common/atomic_file.h"
+#include "common/text.h"
 #include "common/trajectory.h"
 #include "stages/eval/ate.h"
 
@@ -27,14 +29,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
 
-std::string Quote(const fs::path& p) { return "'" + p.string() + "'"; }
-
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string Quote(const fs::path& p) { return rrslam::ShellQuote(p.string()); }
 
 // Runs a command line; returns its exit status and echoes it to stderr.
 int Run(const std::string& command) {
@@ -115,8 +110,8 @@ RunResult TrackAndScore(const fs::path& bin, const fs::path& sequence, const fs:
                               Quote(sequence) + " --settings " + Quote(settings) + " --vocab " +
                               Quote(vocab) + " --out " + Quote(out) + " " + extra;
   if (Run(command) != 0) return r;
-  r.run = nlohmann::json::parse(ReadText(out / "run.json"));
-  r.trajectory = ReadText(out / "CameraTrajectory.txt");
+  r.run = nlohmann::json::parse(rrslam::ReadFileToString(out / "run.json"));
+  r.trajectory = rrslam::ReadFileToString(out / "CameraTrajectory.txt");
   const rrslam::Trajectory gt = rrslam::ReadTumTrajectory(sequence / "groundtruth.txt");
   const rrslam::Trajectory est = rrslam::ReadTumTrajectory(out / "CameraTrajectory.txt");
   r.ate_rmse_m = rrslam::ComputeAte(gt, est).error.rmse;
@@ -182,8 +177,8 @@ int main(int argc, char** argv) {
       const double rss = a.run.at("peak_rss_mb").get<double>();
       report.Add(s, {"peak memory (max RSS)", rss, "MB", "<= 500 MB", rss <= 500});
       const bool identical = a.trajectory == b.trajectory &&
-                             ReadText(runs / "kitchen-batch-1" / "KeyFrameTrajectory.txt") ==
-                                 ReadText(runs / "kitchen-batch-2" / "KeyFrameTrajectory.txt");
+                             rrslam::ReadFileToString(runs / "kitchen-batch-1" / "KeyFrameTrajectory.txt") ==
+                                 rrslam::ReadFileToString(runs / "kitchen-batch-2" / "KeyFrameTrajectory.txt");
       report.Add(s, {"two batch runs byte-identical", identical ? 1.0 : 0.0, "(1 = yes)", "yes",
                      identical});
     }

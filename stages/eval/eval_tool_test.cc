@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "common/text.h"
 #include "common/atomic_file.h"
 #include "common/geometry.h"
 #include "common/testing.h"
@@ -39,12 +40,7 @@ Trajectory Moved(Trajectory trajectory, double time_shift = 0) {
   return trajectory;
 }
 
-std::string Quote(const fs::path& path) {
-  std::string quoted = "'";  // Built by appends: GCC 12 warns on "'" + string (bug 105329).
-  quoted += path.string();
-  quoted += "'";
-  return quoted;
-}
+std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
 
 // stdout only (stderr dropped), for JSON.
 testing::CommandResult RunStdout(const std::string& args) {

@@ -79,26 +79,25 @@ std::shared_ptr<const FrameFeatures> BuildFrameFeatures(const SensorModel& senso
 }
 
 Frame::Frame(uint64_t id, double timestamp, std::shared_ptr<const FrameFeatures> features)
-    : map_points(features->size(), nullptr),
+    : View(timestamp, features),
+      map_points(features->size(), nullptr),
       outlier(features->size(), 0),
-      id_(id),
-      timestamp_(timestamp),
-      features_(std::move(features)) {}
+      id_(id) {}
 
-void Frame::SetPose(const Rigid3d& T_cam_world) {
+void View::SetPose(const Rigid3d& T_cam_world) {
   T_cam_world_ = T_cam_world;
   T_world_cam_ = T_cam_world.Inverse();
   R_cam_world_ = T_cam_world.RotationMatrix();
   has_pose_ = true;
 }
 
-void Frame::ComputeBow(const Vocabulary& vocabulary) {
+void View::ComputeBow(const Vocabulary& vocabulary) {
   if (has_bow_) return;
   vocabulary.Transform(features_->descriptors, &bow_, &feature_vector_, kFeatureVectorLevelsUp);
   has_bow_ = true;
 }
 
-Eigen::Vector3d Frame::UnprojectWorld(const SensorModel& sensor, size_t i) const {
+Eigen::Vector3d View::UnprojectWorld(const SensorModel& sensor, size_t i) const {
   const Keypoint& kp = features_->keypoints[i];
   return T_world_cam_ * sensor.Unproject(kp.undistorted.x(), kp.undistorted.y(), kp.depth);
 }

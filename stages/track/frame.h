@@ -1,5 +1,6 @@
 // Frames: the keypoints of one RGB-D image with their virtual stereo data,
-// a grid for radius search, and the tracking state of that image.
+// a grid for radius search (FrameFeatures), what frames and keyframes share
+// (View: features, pose, bag of words), and the tracking state of an image.
 #pragma once
 
 #include <cstdint>
@@ -55,14 +56,10 @@ std::shared_ptr<const FrameFeatures> BuildFrameFeatures(const SensorModel& senso
                                                         std::vector<Keypoint> keypoints,
                                                         std::vector<OrbDescriptor> descriptors);
 
-// The tracking state of one image: features, pose, map-point associations.
-// Owned by the tracker (one thread); map objects it points to belong to Map.
-class Frame {
+// What a frame and a keyframe share: the image's features and timestamp, a
+// camera pose and the bag of words of its descriptors.
+class View {
  public:
-  Frame() = default;
-  Frame(uint64_t id, double timestamp, std::shared_ptr<const FrameFeatures> features);
-
-  uint64_t id() const { return id_; }
   double timestamp() const { return timestamp_; }
   const FrameFeatures& features() const { return *features_; }
   const std::shared_ptr<const FrameFeatures>& shared_features() const { return features_; }
@@ -78,6 +75,9 @@ class Frame {
   Eigen::Vector3d ToCamera(const Eigen::Vector3d& point_world) const {
     return R_cam_world_ * point_world + T_cam_world_.translation;
   }
+  // World point of keypoint i from its depth (requires a pose and
+  // features().HasDepth(i)).
+  Eigen::Vector3d UnprojectWorld(const SensorModel& sensor, size_t i) const;
 
   // Bag of words (computed on demand: only keyframes and BoW searches need it).
   bool has_bow() const { return has_bow_; }
@@ -91,20 +91,12 @@ class Frame {
     has_bow_ = true;
   }
 
-  // Map point matched to each keypoint (nullptr = none) and whether pose
-  // optimization flagged the match as an outlier.
-  std::vector<MapPoint*> map_points;
-  std::vector<uint8_t> outlier;
-
-  // Keyframe this frame's pose is expressed against in the trajectory.
-  KeyFrame* reference_keyframe = nullptr;
-
-  // Point of keypoint i in world coordinates from its depth (requires a pose
-  // and HasDepth(i)).
-  Eigen::Vector3d UnprojectWorld(const SensorModel& sensor, size_t i) const;
+ protected:
+  View() = default;
+  View(double timestamp, std::shared_ptr<const FrameFeatures> features)
+      : timestamp_(timestamp), features_(std::move(features)) {}
 
  private:
-  uint64_t id_ = 0;
   double timestamp_ = 0;
   std::shared_ptr<const FrameFeatures> features_;
   bool has_pose_ = false;
@@ -114,6 +106,28 @@ class Frame {
   bool has_bow_ = false;
   BowVector bow_;
   FeatureVector feature_vector_;
+};
+
+// The tracking state of one image: its view, map-point associations, outlier
+// flags and reference keyframe. Owned by the tracker (one thread); map
+// objects it points to belong to Map.
+class Frame : public View {
+ public:
+  Frame() = default;
+  Frame(uint64_t id, double timestamp, std::shared_ptr<const FrameFeatures> features);
+
+  uint64_t id() const { return id_; }
+
+  // Map point matched to each keypoint (nullptr = none) and whether pose
+  // optimization flagged the match as an outlier.
+  std::vector<MapPoint*> map_points;
+  std::vector<uint8_t> outlier;
+
+  // Keyframe this frame's pose is expressed against in the trajectory.
+  KeyFrame* reference_keyframe = nullptr;
+
+ private:
+  uint64_t id_ = 0;
 };
 
 // Levels above the leaves at which feature vectors group features (ORB-SLAM2: 4).

@@ -5,35 +5,7 @@
 namespace rrslam {
 
 KeyFrame::KeyFrame(KeyFrameId id, const Frame& frame)
-    : id_(id),
-      frame_id_(frame.id()),
-      timestamp_(frame.timestamp()),
-      features_(frame.shared_features()),
-      map_points_(frame.map_points) {
-  SetPose(frame.T_cam_world());
-  if (frame.has_bow()) {
-    bow_ = frame.bow();
-    feature_vector_ = frame.feature_vector();
-    has_bow_ = true;
-  }
-}
-
-void KeyFrame::SetPose(const Rigid3d& T_cam_world) {
-  T_cam_world_ = T_cam_world;
-  T_world_cam_ = T_cam_world.Inverse();
-  R_cam_world_ = T_cam_world.RotationMatrix();
-}
-
-Eigen::Vector3d KeyFrame::UnprojectWorld(const SensorModel& sensor, size_t i) const {
-  const Keypoint& kp = features_->keypoints[i];
-  return T_world_cam_ * sensor.Unproject(kp.undistorted.x(), kp.undistorted.y(), kp.depth);
-}
-
-void KeyFrame::ComputeBow(const Vocabulary& vocabulary) {
-  if (has_bow_) return;
-  vocabulary.Transform(features_->descriptors, &bow_, &feature_vector_, kFeatureVectorLevelsUp);
-  has_bow_ = true;
-}
+    : View(frame), id_(id), frame_id_(frame.id()), map_points_(frame.map_points) {}
 
 int KeyFrame::NumTrackedMapPoints(int min_observations) const {
   int n = 0;

@@ -20,7 +20,7 @@
 
 namespace rrslam {
 
-class KeyFrame {
+class KeyFrame : public View {
  public:
   // A keyframe from a tracked frame: shares its features, copies its pose, its
   // bag of words (when computed) and its map-point associations.
@@ -28,34 +28,7 @@ class KeyFrame {
 
   KeyFrameId id() const { return id_; }
   uint64_t frame_id() const { return frame_id_; }
-  double timestamp() const { return timestamp_; }
-  const FrameFeatures& features() const { return *features_; }
-  const std::shared_ptr<const FrameFeatures>& shared_features() const { return features_; }
-  size_t size() const { return features_->size(); }
-
-  // Pose.
-  const Rigid3d& T_cam_world() const { return T_cam_world_; }
-  const Rigid3d& T_world_cam() const { return T_world_cam_; }
-  const Eigen::Matrix3d& R_cam_world() const { return R_cam_world_; }
-  const Eigen::Vector3d& camera_centre() const { return T_world_cam_.translation; }
-  void SetPose(const Rigid3d& T_cam_world);
-  Eigen::Vector3d ToCamera(const Eigen::Vector3d& point_world) const {
-    return R_cam_world_ * point_world + T_cam_world_.translation;
-  }
-  // World point of keypoint i from its depth (requires features().HasDepth(i)).
-  Eigen::Vector3d UnprojectWorld(const SensorModel& sensor, size_t i) const;
-
-  // Bag of words.
-  bool has_bow() const { return has_bow_; }
-  void ComputeBow(const Vocabulary& vocabulary);
-  const BowVector& bow() const { return bow_; }
-  const FeatureVector& feature_vector() const { return feature_vector_; }
-  // Sets the bag of words computed elsewhere (tests, tools).
-  void SetBow(BowVector bow, FeatureVector feature_vector) {
-    bow_ = std::move(bow);
-    feature_vector_ = std::move(feature_vector);
-    has_bow_ = true;
-  }
+  // Features, timestamp, pose and bag of words: View.
 
   // Map point of each keypoint (nullptr = none). Only these setters change
   // one side of an association; Map keeps both sides consistent.
@@ -112,14 +85,6 @@ class KeyFrame {
 
   KeyFrameId id_;
   uint64_t frame_id_;
-  double timestamp_;
-  std::shared_ptr<const FrameFeatures> features_;
-  Rigid3d T_cam_world_;
-  Rigid3d T_world_cam_;
-  Eigen::Matrix3d R_cam_world_;
-  bool has_bow_ = false;
-  BowVector bow_;
-  FeatureVector feature_vector_;
   std::vector<MapPoint*> map_points_;
   std::vector<Connection> connections_;
   std::vector<KeyFrame*> ordered_neighbours_;
