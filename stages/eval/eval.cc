@@ -111,6 +111,21 @@ auto WithFiles(const fs::path& gt, const fs::path& est, Fn&& fn) {
   }
 }
 
+// The report of `command` (ate or rpe): JSON with the producer, the inputs,
+// the options and `results`, or `text` as it is.
+std::string Report(bool json, const char* command, const fs::path& gt, const fs::path& est,
+                   nlohmann::ordered_json options, const nlohmann::ordered_json& results,
+                   std::string text) {
+  if (!json) return text;
+  nlohmann::ordered_json j = {{"producer", Producer(kStage)},
+                              {"command", command},
+                              {"gt", gt.string()},
+                              {"est", est.string()},
+                              {"options", std::move(options)}};
+  j.update(results);
+  return j.dump(2) + "\n";
+}
+
 }  // namespace
 
 bool EvalAteOptions::Check(std::string* why) const {
@@ -215,18 +230,9 @@ AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {
                                    .dump()}});
     files.emplace_back(options.plot_path, std::string(png.begin(), png.end()));
   }
-  std::string report;
-  if (options.json) {
-    nlohmann::ordered_json j = {{"producer", Producer(kStage)},
-                                {"command", "ate"},
-                                {"gt", options.gt_path.string()},
-                                {"est", options.est_path.string()},
-                                {"options", options.ate.ToJson()}};
-    j.update(AteResultToJson(result));
-    report = j.dump(2) + "\n";
-  } else {
-    report = FormatAteReport(result);
-  }
+  const std::string report =
+      Report(options.json, "ate", options.gt_path, options.est_path, options.ate.ToJson(),
+             AteResultToJson(result), FormatAteReport(result));
   if (!options.report_path.empty()) files.emplace_back(options.report_path, report);
   WriteAll(std::move(files));
   if (options.report_path.empty()) {
@@ -246,18 +252,9 @@ RpeResult RunEvalRpe(const EvalRpeOptions& options, std::ostream& out) {
   spdlog::info("{} pose pairs compared ({} left out without ground truth within {:.6f} s)",
                result.pairs.size(), result.skipped_pairs, result.max_difference);
 
-  std::string report;
-  if (options.json) {
-    nlohmann::ordered_json j = {{"producer", Producer(kStage)},
-                                {"command", "rpe"},
-                                {"gt", options.gt_path.string()},
-                                {"est", options.est_path.string()},
-                                {"options", options.rpe.ToJson()}};
-    j.update(RpeResultToJson(result));
-    report = j.dump(2) + "\n";
-  } else {
-    report = FormatRpeReport(result);
-  }
+  const std::string report =
+      Report(options.json, "rpe", options.gt_path, options.est_path, options.rpe.ToJson(),
+             RpeResultToJson(result), FormatRpeReport(result));
   std::vector<std::pair<fs::path, std::string>> files;
   if (!options.pairs_path.empty()) {
     const nlohmann::ordered_json run = {{"command", "rpe"}, {"options", options.ToJson()}};
