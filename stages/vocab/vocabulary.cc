@@ -285,88 +285,68 @@ void Vocabulary::Transform(std::span<const OrbDescriptor> descriptors, BowVector
   }
 }
 
+namespace {
+
+// Sum of fn(v_i, w_i) over the words both sorted vectors hold.
+template <typename Fn>
+double SumOverCommonWords(const std::vector<std::pair<WordId, WordValue>>& v,
+                          const std::vector<std::pair<WordId, WordValue>>& w, Fn fn) {
+  double sum = 0;
+  size_t i = 0, j = 0;
+  while (i < v.size() && j < w.size()) {
+    if (v[i].first == w[j].first) {
+      sum += fn(v[i++].second, w[j++].second);
+    } else if (v[i].first < w[j].first) {
+      ++i;
+    } else {
+      ++j;
+    }
+  }
+  return sum;
+}
+
+}  // namespace
+
 double Vocabulary::Score(const BowVector& a, const BowVector& b) const {
   // DBoW2's scoring objects (ScoringObject.cpp), over the words both vectors
   // hold; the vectors are normalized as Transform leaves them.
   const auto& v = a.entries;
   const auto& w = b.entries;
-  double score = 0;
-  size_t i = 0, j = 0;
+  const auto product = [](double vi, double wi) { return vi * wi; };
   switch (scoring()) {
     case ScoringType::kL1:
       // |v - w|_1 = 2 + sum over common words (|vi - wi| - |vi| - |wi|) (Nister 2006).
-      while (i < v.size() && j < w.size()) {
-        if (v[i].first == w[j].first) {
-          const double vi = v[i++].second, wi = w[j++].second;
-          score += std::fabs(vi - wi) - std::fabs(vi) - std::fabs(wi);
-        } else if (v[i].first < w[j].first) {
-          ++i;
-        } else {
-          ++j;
-        }
-      }
-      return -score / 2.0;
-    case ScoringType::kL2:
-      while (i < v.size() && j < w.size()) {
-        if (v[i].first == w[j].first) {
-          score += v[i++].second * w[j++].second;
-        } else if (v[i].first < w[j].first) {
-          ++i;
-        } else {
-          ++j;
-        }
-      }
+      return -SumOverCommonWords(v, w, [](double vi, double wi) {
+               return std::fabs(vi - wi) - std::fabs(vi) - std::fabs(wi);
+             }) / 2.0;
+    case ScoringType::kL2: {
+      const double score = SumOverCommonWords(v, w, product);
       return score >= 1 ? 1.0 : 1.0 - std::sqrt(1.0 - score);
+    }
     case ScoringType::kChiSquare:
-      while (i < v.size() && j < w.size()) {
-        if (v[i].first == w[j].first) {
-          const double vi = v[i++].second, wi = w[j++].second;
-          if (vi + wi != 0.0) score += vi * wi / (vi + wi);
-        } else if (v[i].first < w[j].first) {
-          ++i;
-        } else {
-          ++j;
-        }
-      }
-      return 2.0 * score;
+      return 2.0 * SumOverCommonWords(v, w, [](double vi, double wi) {
+               return vi + wi != 0.0 ? vi * wi / (vi + wi) : 0.0;
+             });
     case ScoringType::kKL: {
       // Every word of a counts; words missing from b are charged log(eps).
       const double log_eps = std::log(DBL_EPSILON);
-      while (i < v.size()) {
-        const double vi = v[i].second;
-        while (j < w.size() && w[j].first < v[i].first) ++j;
-        if (j < w.size() && w[j].first == v[i].first) {
+      double score = 0;
+      size_t j = 0;
+      for (const auto& [word, vi] : v) {
+        while (j < w.size() && w[j].first < word) ++j;
+        if (j < w.size() && w[j].first == word) {
           const double wi = w[j].second;
           if (vi != 0 && wi != 0) score += vi * std::log(vi / wi);
         } else if (vi != 0) {
           score += vi * (std::log(vi) - log_eps);
         }
-        ++i;
       }
       return score;
     }
     case ScoringType::kBhattacharyya:
-      while (i < v.size() && j < w.size()) {
-        if (v[i].first == w[j].first) {
-          score += std::sqrt(v[i++].second * w[j++].second);
-        } else if (v[i].first < w[j].first) {
-          ++i;
-        } else {
-          ++j;
-        }
-      }
-      return score;
+      return SumOverCommonWords(v, w, [](double vi, double wi) { return std::sqrt(vi * wi); });
     case ScoringType::kDotProduct:
-      while (i < v.size() && j < w.size()) {
-        if (v[i].first == w[j].first) {
-          score += v[i++].second * w[j++].second;
-        } else if (v[i].first < w[j].first) {
-          ++i;
-        } else {
-          ++j;
-        }
-      }
-      return score;
+      return SumOverCommonWords(v, w, product);
   }
   return 0;
 }
