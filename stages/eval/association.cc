@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 
 namespace rrslam {
@@ -50,6 +51,24 @@ std::vector<double> Timestamps(const Trajectory& trajectory) {
   std::vector<double> stamps(trajectory.size());
   for (size_t i = 0; i < trajectory.size(); ++i) stamps[i] = trajectory[i].timestamp;
   return stamps;
+}
+
+std::string Format(const char* format, double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), format, value);
+  return buffer;
+}
+
+bool CheckOffsetAndScale(double offset, double scale, std::string* why) {
+  if (!std::isfinite(offset)) {
+    *why = "offset = " + Format("%g", offset) + " s; must be finite";
+    return false;
+  }
+  if (!(scale > 0) || !std::isfinite(scale)) {
+    *why = "scale = " + Format("%g", scale) + "; must be > 0";
+    return false;
+  }
+  return true;
 }
 
 }  // namespace rrslam

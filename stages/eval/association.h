@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <span>
+#include <string>
 
 #include "common/trajectory.h"
 
@@ -24,5 +25,12 @@ size_t FindClosestIndex(std::span<const double> sorted, double value);
 
 // Timestamps of a trajectory, in order.
 std::vector<double> Timestamps(const Trajectory& trajectory);
+
+// Checks the estimate's time offset (s, finite) and scale (> 0, finite) that
+// both ATE and RPE apply before pairing; names the first violation in `why`.
+bool CheckOffsetAndScale(double offset, double scale, std::string* why);
+
+// One number through a printf format (for messages and reports).
+std::string Format(const char* format, double value);
 
 }  // namespace rrslam

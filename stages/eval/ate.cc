@@ -11,12 +11,6 @@
 namespace rrslam {
 namespace {
 
-std::string Format(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), format, value);
-  return buffer;
-}
-
 std::string Span(const Trajectory& trajectory) {
   return Format("%.6f", trajectory.front().timestamp) + " to " +
          Format("%.6f", trajectory.back().timestamp) + " s";
@@ -29,15 +23,7 @@ bool AteOptions::Check(std::string* why) const {
     *why = "max_difference = " + Format("%g", max_difference) + " s; must be > 0";
     return false;
   }
-  if (!std::isfinite(offset)) {
-    *why = "offset = " + Format("%g", offset) + " s; must be finite";
-    return false;
-  }
-  if (!(scale > 0) || !std::isfinite(scale)) {
-    *why = "scale = " + Format("%g", scale) + "; must be > 0";
-    return false;
-  }
-  return true;
+  return CheckOffsetAndScale(offset, scale, why);
 }
 
 nlohmann::ordered_json AteOptions::ToJson() const {

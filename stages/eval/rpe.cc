@@ -12,12 +12,6 @@ namespace {
 
 constexpr double kDegreesPerRadian = 180.0 / M_PI;
 
-std::string Format(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), format, value);
-  return buffer;
-}
-
 double MedianInterval(const std::vector<double>& sorted_stamps) {
   std::vector<double> intervals(sorted_stamps.size() - 1);
   for (size_t k = 0; k + 1 < sorted_stamps.size(); ++k) {
@@ -48,15 +42,7 @@ bool RpeOptions::Check(std::string* why) const {
            " s; must be >= 0 (0: twice the median ground-truth interval)";
     return false;
   }
-  if (!std::isfinite(offset)) {
-    *why = "offset = " + Format("%g", offset) + " s; must be finite";
-    return false;
-  }
-  if (!(scale > 0) || !std::isfinite(scale)) {
-    *why = "scale = " + Format("%g", scale) + "; must be > 0";
-    return false;
-  }
-  return true;
+  return CheckOffsetAndScale(offset, scale, why);
 }
 
 nlohmann::ordered_json RpeOptions::ToJson() const {
