@@ -41,7 +41,7 @@ TEST(AtomicFile, MissingOrReadOnlyFolderIsCantCreate) {
   testing::TempDir dir;
   EXPECT_THROW(WriteFileAtomically(dir / "missing" / "a.txt", "x"), CantCreateError);
   EXPECT_THROW(AtomicOutput(dir.path()), CantCreateError);  // A folder, not a file.
-  if (::geteuid() != 0) {  // root ignores permissions
+  if (::geteuid() != 0) {                                   // root ignores permissions
     fs::create_directory(dir / "ro");
     fs::permissions(dir / "ro", fs::perms::owner_read | fs::perms::owner_exec);
     EXPECT_THROW(WriteFileAtomically(dir / "ro" / "a.txt", "x"), CantCreateError);

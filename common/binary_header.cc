@@ -51,7 +51,8 @@ BinaryHeaderView ParseBinaryHeader(std::span<const uint8_t> file, const FormatSp
     throw DataError(path + ": truncated: " + std::to_string(file.size()) +
                     " bytes, shorter than a " + spec.name + " header");
   }
-  if (!HasMagic(file, spec)) throw DataError(path + ": not a " + std::string(spec.name) + " file (bad magic)");
+  if (!HasMagic(file, spec))
+    throw DataError(path + ": not a " + std::string(spec.name) + " file (bad magic)");
   BinaryHeaderView view;
   view.major = LoadLittleEndian<uint16_t>(file.data() + 8);
   view.minor = LoadLittleEndian<uint16_t>(file.data() + 10);

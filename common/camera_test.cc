@@ -27,16 +27,15 @@ TEST(PinholeCamera, DistortUndistortRoundTripOverImage) {
 
 TEST(PinholeCamera, MatchesOpenCvProjectPoints) {
   const PinholeCamera camera = Freiburg1();
-  cv::Mat K = (cv::Mat_<double>(3, 3) << camera.fx(), 0, camera.cx(), 0, camera.fy(),
-               camera.cy(), 0, 0, 1);
+  cv::Mat K =
+      (cv::Mat_<double>(3, 3) << camera.fx(), 0, camera.cx(), 0, camera.fy(), camera.cy(), 0, 0, 1);
   const Distortion& d = camera.distortion();
   cv::Mat dist = (cv::Mat_<double>(1, 5) << d.k1, d.k2, d.p1, d.p2, d.k3);
   std::vector<cv::Point3d> points = {{0.1, -0.2, 1.5}, {-0.6, 0.4, 2.0}, {0.5, 0.35, 1.0}};
   std::vector<cv::Point2d> projected;
   cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, dist, projected);
   for (size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector2d ours =
-        camera.ProjectDistorted({points[i].x, points[i].y, points[i].z});
+    const Eigen::Vector2d ours = camera.ProjectDistorted({points[i].x, points[i].y, points[i].z});
     EXPECT_NEAR(ours.x(), projected[i].x, 1e-9);
     EXPECT_NEAR(ours.y(), projected[i].y, 1e-9);
   }
@@ -44,13 +43,14 @@ TEST(PinholeCamera, MatchesOpenCvProjectPoints) {
 
 TEST(PinholeCamera, UndistortAgreesWithOpenCvWhereItConverges) {
   const PinholeCamera camera = Freiburg1();
-  cv::Mat K = (cv::Mat_<double>(3, 3) << camera.fx(), 0, camera.cx(), 0, camera.fy(),
-               camera.cy(), 0, 0, 1);
+  cv::Mat K =
+      (cv::Mat_<double>(3, 3) << camera.fx(), 0, camera.cx(), 0, camera.fy(), camera.cy(), 0, 0, 1);
   const Distortion& d = camera.distortion();
   cv::Mat dist = (cv::Mat_<double>(1, 5) << d.k1, d.k2, d.p1, d.p2, d.k3);
   std::vector<cv::Point2d> pixels = {{320, 240}, {200, 150}, {450, 330}}, out;
-  cv::undistortPoints(pixels, out, K, dist, cv::noArray(), K,
-                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
+  cv::undistortPoints(
+      pixels, out, K, dist, cv::noArray(), K,
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
   for (size_t i = 0; i < pixels.size(); ++i) {
     const Eigen::Vector2d ours = camera.UndistortPixel({pixels[i].x, pixels[i].y});
     EXPECT_NEAR(ours.x(), out[i].x, 1e-4);

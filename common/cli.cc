@@ -13,9 +13,7 @@
 
 namespace rrslam {
 
-std::string Producer(const std::string& stage) {
-  return "rrslam-" + stage + " " + kVersion;
-}
+std::string Producer(const std::string& stage) { return "rrslam-" + stage + " " + kVersion; }
 
 void InitLogging(int verbosity) {
   auto logger = spdlog::get("rrslam");
@@ -54,7 +52,7 @@ int RunTool(int argc, char** argv, const ToolInfo& info,
 
   InitLogging(quiet ? 0 : 1 + verbose);
   SetProgressQuiet(quiet);
-  H5::Exception::dontPrint();     // HDF5 errors surface as exceptions, not stack dumps.
+  H5::Exception::dontPrint();  // HDF5 errors surface as exceptions, not stack dumps.
   cv::redirectError([](int, const char*, const char*, const char*, int, void*) { return 0; });
   try {
     run();

@@ -7,17 +7,19 @@
 namespace rrslam {
 namespace {
 
-int RunWithArgs(std::vector<std::string> args, const std::function<void()>& body, int* value = nullptr) {
+int RunWithArgs(std::vector<std::string> args, const std::function<void()>& body,
+                int* value = nullptr) {
   std::vector<char*> argv;
   args.insert(args.begin(), "rrslam-test");
   for (std::string& a : args) argv.push_back(a.data());
   int local = 0;
   int* bound = value != nullptr ? value : &local;
-  return RunTool(static_cast<int>(argv.size()), argv.data(), {"test", "A test tool."},
-                 [&](CLI::App& app) {
-                   app.add_option("--value", *bound, "A value")->check(CLI::Range(0, 10));
-                 },
-                 body);
+  return RunTool(
+      static_cast<int>(argv.size()), argv.data(), {"test", "A test tool."},
+      [&](CLI::App& app) {
+        app.add_option("--value", *bound, "A value")->check(CLI::Range(0, 10));
+      },
+      body);
 }
 
 TEST(RunTool, MapsErrorsToExitCodes) {
@@ -36,7 +38,9 @@ TEST(RunTool, BadFlagsAreUsageErrors) {
   EXPECT_EQ(RunWithArgs({"--value", "11"}, [&] { ran = true; }), 64);
   EXPECT_FALSE(ran);
   int value = 0;
-  EXPECT_EQ(RunWithArgs({"--value", "7", "--quiet"}, [] {}, &value), 0);
+  EXPECT_EQ(RunWithArgs(
+                {"--value", "7", "--quiet"}, [] {}, &value),
+            0);
   EXPECT_EQ(value, 7);
 }
 

@@ -14,8 +14,7 @@ namespace fs = std::filesystem;
 
 std::vector<std::pair<size_t, size_t>> AssociateTimestamps(const std::vector<double>& a,
                                                            const std::vector<double>& b,
-                                                           double max_difference,
-                                                           double offset) {
+                                                           double max_difference, double offset) {
   // Candidates inside the window; b is scanned in sorted order so each a only
   // visits the b stamps within max_difference (same result as all pairs).
   std::vector<size_t> b_order(b.size());
@@ -55,8 +54,7 @@ std::vector<std::pair<double, std::string>> ReadTimestampList(const fs::path& pa
   std::vector<std::pair<double, std::string>> list;
   ForEachDataLine(text, source, [&](const std::vector<std::string_view>& fields, int line) {
     if (fields.size() < 2) {
-      throw DataError(source + " line " + std::to_string(line) +
-                      ": expected 'timestamp filename'");
+      throw DataError(source + " line " + std::to_string(line) + ": expected 'timestamp filename'");
     }
     list.emplace_back(ParseDouble(fields[0], source, line), std::string(fields[1]));
   });
@@ -135,8 +133,10 @@ RgbdSequence RgbdSequence::Open(const fs::path& dir, const SequenceOptions& opti
     }
   }
   for (const RgbdFrameRef& f : seq.frames_) {
-    if (!fs::is_regular_file(f.rgb_path, ec)) throw DataError(f.rgb_path.string() + ": listed image does not exist");
-    if (!fs::is_regular_file(f.depth_path, ec)) throw DataError(f.depth_path.string() + ": listed image does not exist");
+    if (!fs::is_regular_file(f.rgb_path, ec))
+      throw DataError(f.rgb_path.string() + ": listed image does not exist");
+    if (!fs::is_regular_file(f.depth_path, ec))
+      throw DataError(f.depth_path.string() + ": listed image does not exist");
   }
   const fs::path gt = dir / "groundtruth.txt";
   if (fs::is_regular_file(gt, ec)) seq.groundtruth_ = ReadTumTrajectory(gt);

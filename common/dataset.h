@@ -30,7 +30,7 @@ struct SequenceOptions {
 };
 
 struct RgbdFrameRef {
-  double rgb_timestamp = 0;  // Seconds; the frame's timestamp.
+  double rgb_timestamp = 0;        // Seconds; the frame's timestamp.
   std::filesystem::path rgb_path;  // Absolute or relative to the working folder.
   double depth_timestamp = 0;
   std::filesystem::path depth_path;
@@ -89,6 +89,7 @@ cv::Mat LoadDepthImage(const std::filesystem::path& path);
 
 // Checks that rgb and depth images have the same size; throws DataError naming
 // `depth_path` otherwise.
-void CheckSameSize(const cv::Mat& rgb, const cv::Mat& depth, const std::filesystem::path& depth_path);
+void CheckSameSize(const cv::Mat& rgb, const cv::Mat& depth,
+                   const std::filesystem::path& depth_path);
 
 }  // namespace rrslam

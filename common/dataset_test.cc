@@ -3,11 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
-
-#include <sstream>
 #include "common/testing.h"
 
 namespace rrslam {
@@ -98,8 +97,10 @@ class BadSequence : public ::testing::Test {
   void SetUp() override {
     fs::create_directories(dir_ / "seq" / "rgb");
     fs::create_directories(dir_ / "seq" / "depth");
-    cv::imwrite((dir_ / "seq" / "rgb" / "1.png").string(), cv::Mat(48, 64, CV_8UC3, cv::Scalar(1, 2, 3)));
-    cv::imwrite((dir_ / "seq" / "depth" / "1.png").string(), cv::Mat(48, 64, CV_16UC1, cv::Scalar(5000)));
+    cv::imwrite((dir_ / "seq" / "rgb" / "1.png").string(),
+                cv::Mat(48, 64, CV_8UC3, cv::Scalar(1, 2, 3)));
+    cv::imwrite((dir_ / "seq" / "depth" / "1.png").string(),
+                cv::Mat(48, 64, CV_16UC1, cv::Scalar(5000)));
     testing::WriteTextFile(dir_ / "seq" / "rgb.txt", "# rgb\n1.0 rgb/1.png\n");
     testing::WriteTextFile(dir_ / "seq" / "depth.txt", "# depth\n1.001 depth/1.png\n");
   }

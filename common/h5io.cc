@@ -22,7 +22,8 @@ H5::H5File CreateH5File(const std::filesystem::path& path) {
 H5::Group CreateH5Group(H5::Group& parent, const std::string& name) {
   H5::PropList props(H5Pcreate(H5P_GROUP_CREATE));
   H5Pset_obj_track_times(props.getId(), false);
-  const hid_t id = H5Gcreate2(parent.getId(), name.c_str(), H5P_DEFAULT, props.getId(), H5P_DEFAULT);
+  const hid_t id =
+      H5Gcreate2(parent.getId(), name.c_str(), H5P_DEFAULT, props.getId(), H5P_DEFAULT);
   if (id < 0) throw H5::GroupIException("CreateH5Group", "H5Gcreate2 failed for " + name);
   H5::Group group(id);  // Takes a reference of its own.
   H5Gclose(id);         // Drops ours, so the Group object owns the only one.
@@ -85,8 +86,7 @@ H5::H5File OpenH5File(const std::filesystem::path& path, const FormatSpec& spec,
 }
 
 void WriteH5Array(H5::Group& group, const std::string& name, const void* data,
-                  const H5::PredType& type, const std::vector<hsize_t>& dims,
-                  hsize_t chunk_rows) {
+                  const H5::PredType& type, const std::vector<hsize_t>& dims, hsize_t chunk_rows) {
   H5::DataSpace space(static_cast<int>(dims.size()), dims.data());
   H5::DSetCreatPropList props;
   H5Pset_obj_track_times(props.getId(), false);

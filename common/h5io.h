@@ -56,17 +56,28 @@ H5FormatInfo ReadFormatAttributes(const H5::H5File& file);
 
 template <typename T>
 const H5::PredType& H5TypeOf() {
-  if constexpr (std::is_same_v<T, uint8_t>) return H5::PredType::NATIVE_UINT8;
-  else if constexpr (std::is_same_v<T, int8_t>) return H5::PredType::NATIVE_INT8;
-  else if constexpr (std::is_same_v<T, uint16_t>) return H5::PredType::NATIVE_UINT16;
-  else if constexpr (std::is_same_v<T, int16_t>) return H5::PredType::NATIVE_INT16;
-  else if constexpr (std::is_same_v<T, uint32_t>) return H5::PredType::NATIVE_UINT32;
-  else if constexpr (std::is_same_v<T, int32_t>) return H5::PredType::NATIVE_INT32;
-  else if constexpr (std::is_same_v<T, uint64_t>) return H5::PredType::NATIVE_UINT64;
-  else if constexpr (std::is_same_v<T, int64_t>) return H5::PredType::NATIVE_INT64;
-  else if constexpr (std::is_same_v<T, float>) return H5::PredType::NATIVE_FLOAT;
-  else if constexpr (std::is_same_v<T, double>) return H5::PredType::NATIVE_DOUBLE;
-  else static_assert(sizeof(T) == 0, "unsupported HDF5 element type");
+  if constexpr (std::is_same_v<T, uint8_t>)
+    return H5::PredType::NATIVE_UINT8;
+  else if constexpr (std::is_same_v<T, int8_t>)
+    return H5::PredType::NATIVE_INT8;
+  else if constexpr (std::is_same_v<T, uint16_t>)
+    return H5::PredType::NATIVE_UINT16;
+  else if constexpr (std::is_same_v<T, int16_t>)
+    return H5::PredType::NATIVE_INT16;
+  else if constexpr (std::is_same_v<T, uint32_t>)
+    return H5::PredType::NATIVE_UINT32;
+  else if constexpr (std::is_same_v<T, int32_t>)
+    return H5::PredType::NATIVE_INT32;
+  else if constexpr (std::is_same_v<T, uint64_t>)
+    return H5::PredType::NATIVE_UINT64;
+  else if constexpr (std::is_same_v<T, int64_t>)
+    return H5::PredType::NATIVE_INT64;
+  else if constexpr (std::is_same_v<T, float>)
+    return H5::PredType::NATIVE_FLOAT;
+  else if constexpr (std::is_same_v<T, double>)
+    return H5::PredType::NATIVE_DOUBLE;
+  else
+    static_assert(sizeof(T) == 0, "unsupported HDF5 element type");
 }
 
 // Writes `data` as dataset `name` of `group` with shape `dims` (product of
@@ -91,9 +102,8 @@ void ReadH5Array(const H5::Group& group, const std::string& name, void* out,
                  const H5::PredType& type, const std::string& path);
 
 template <typename T>
-std::vector<T> ReadH5Array(const H5::Group& group, const std::string& name,
-                           const std::string& path, std::vector<hsize_t>* dims = nullptr,
-                           int expected_rank = 0) {
+std::vector<T> ReadH5Array(const H5::Group& group, const std::string& name, const std::string& path,
+                           std::vector<hsize_t>* dims = nullptr, int expected_rank = 0) {
   const std::vector<hsize_t> shape = H5ArrayShape(group, name, path);
   if (expected_rank > 0 && static_cast<int>(shape.size()) != expected_rank) {
     throw DataError(path + ": dataset " + name + " has rank " + std::to_string(shape.size()) +

@@ -139,8 +139,8 @@ bool RunJpegDecode(JpegDecodeJob* job, std::span<const uint8_t> bytes, bool gray
   // Grey output of a colour JPEG is its luma channel, as cv::IMREAD_GRAYSCALE.
   cinfo->out_color_space = gray ? JCS_GRAYSCALE : JCS_EXT_BGR;
   jpeg_start_decompress(cinfo);
-  job->image.create(static_cast<int>(cinfo->output_height),
-                    static_cast<int>(cinfo->output_width), gray ? CV_8UC1 : CV_8UC3);
+  job->image.create(static_cast<int>(cinfo->output_height), static_cast<int>(cinfo->output_width),
+                    gray ? CV_8UC1 : CV_8UC3);
   while (cinfo->output_scanline < cinfo->output_height) {
     JSAMPROW row = job->image.ptr<JSAMPLE>(static_cast<int>(cinfo->output_scanline));
     jpeg_read_scanlines(cinfo, &row, 1);

@@ -26,7 +26,8 @@ enum class ImageReadMode {
 // Reads a PNG or JPEG file (told by its signature). Throws NoInputError when the
 // file cannot be opened, DataError when it is not a readable PNG/JPEG or its
 // pixel format does not fit `mode`. Messages name the file.
-cv::Mat ReadImage(const std::filesystem::path& path, ImageReadMode mode = ImageReadMode::kUnchanged);
+cv::Mat ReadImage(const std::filesystem::path& path,
+                  ImageReadMode mode = ImageReadMode::kUnchanged);
 
 // Decodes PNG or JPEG bytes; `name` stands for the file in errors.
 cv::Mat DecodeImage(std::span<const uint8_t> bytes, ImageReadMode mode, const std::string& name);

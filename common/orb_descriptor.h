@@ -19,8 +19,10 @@ struct alignas(32) OrbDescriptor {
   }
   bool Bit(int i) const { return (bytes[i >> 3] >> (i & 7)) & 1; }
   void SetBit(int i, bool value) {
-    if (value) bytes[i >> 3] |= uint8_t(1u << (i & 7));
-    else bytes[i >> 3] &= uint8_t(~(1u << (i & 7)));
+    if (value)
+      bytes[i >> 3] |= uint8_t(1u << (i & 7));
+    else
+      bytes[i >> 3] &= uint8_t(~(1u << (i & 7)));
   }
 };
 static_assert(sizeof(OrbDescriptor) == 32);

@@ -55,8 +55,10 @@ bool Settings::Check(std::string* why) const {
   for (double k : {distortion.k1, distortion.k2, distortion.p1, distortion.p2, distortion.k3}) {
     if (!std::isfinite(k)) return fail("Camera distortion coefficient is not finite");
   }
-  if (width < 0 || width > 100000) return fail("Camera.width = " + std::to_string(width) + "; must be in [0, 100000]");
-  if (height < 0 || height > 100000) return fail("Camera.height = " + std::to_string(height) + "; must be in [0, 100000]");
+  if (width < 0 || width > 100000)
+    return fail("Camera.width = " + std::to_string(width) + "; must be in [0, 100000]");
+  if (height < 0 || height > 100000)
+    return fail("Camera.height = " + std::to_string(height) + "; must be in [0, 100000]");
   if (!positive(fps)) return fail("Camera.fps = " + Fmt("%g", fps) + "; must be > 0");
   if (!positive(bf)) return fail("Camera.bf = " + Fmt("%g", bf) + "; must be > 0");
   if (!positive(th_depth)) return fail("ThDepth = " + Fmt("%g", th_depth) + "; must be > 0");
@@ -64,16 +66,19 @@ bool Settings::Check(std::string* why) const {
     return fail("DepthMapFactor = " + Fmt("%g", depth_map_factor) + "; must be > 0");
   }
   if (orb.n_features < 1 || orb.n_features > 100000) {
-    return fail("ORBextractor.nFeatures = " + std::to_string(orb.n_features) + "; must be in [1, 100000]");
+    return fail("ORBextractor.nFeatures = " + std::to_string(orb.n_features) +
+                "; must be in [1, 100000]");
   }
   if (!(orb.scale_factor > 1.0 && orb.scale_factor <= 4.0)) {
-    return fail("ORBextractor.scaleFactor = " + Fmt("%g", orb.scale_factor) + "; must be in (1, 4]");
+    return fail("ORBextractor.scaleFactor = " + Fmt("%g", orb.scale_factor) +
+                "; must be in (1, 4]");
   }
   if (orb.n_levels < 1 || orb.n_levels > 16) {
     return fail("ORBextractor.nLevels = " + std::to_string(orb.n_levels) + "; must be in [1, 16]");
   }
   if (orb.ini_th_fast < 1 || orb.ini_th_fast > 255) {
-    return fail("ORBextractor.iniThFAST = " + std::to_string(orb.ini_th_fast) + "; must be in [1, 255]");
+    return fail("ORBextractor.iniThFAST = " + std::to_string(orb.ini_th_fast) +
+                "; must be in [1, 255]");
   }
   if (orb.min_th_fast < 1 || orb.min_th_fast > orb.ini_th_fast) {
     return fail("ORBextractor.minThFAST = " + std::to_string(orb.min_th_fast) +
@@ -85,7 +90,8 @@ bool Settings::Check(std::string* why) const {
 Settings ReadSettings(const std::filesystem::path& path) {
   const std::string name = path.string();
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw NoInputError(name + ": no such settings file");
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw NoInputError(name + ": no such settings file");
   Settings s = ParseSettings(ReadFileToString(path), name);
   s.source = path;
   return s;
@@ -103,8 +109,10 @@ Settings ParseSettings(const std::string& text, const std::string& name) {
 
   Settings s;
   try {
-    for (const auto& [key, field] : {std::pair{"Camera.fx", &s.fx}, {"Camera.fy", &s.fy},
-                                     {"Camera.cx", &s.cx}, {"Camera.cy", &s.cy}}) {
+    for (const auto& [key, field] : {std::pair{"Camera.fx", &s.fx},
+                                     {"Camera.fy", &s.fy},
+                                     {"Camera.cx", &s.cx},
+                                     {"Camera.cy", &s.cy}}) {
       if (!ReadNumber(fs, key, name, field)) throw DataError(name + ": missing " + key);
     }
     ReadNumber(fs, "Camera.k1", name, &s.distortion.k1);

@@ -32,13 +32,13 @@ struct Settings {
   // Intrinsics (pixels) and distortion.
   double fx = 0, fy = 0, cx = 0, cy = 0;
   Distortion distortion;
-  int width = 0;   // Image size in pixels; 0 = not given (taken from the images).
+  int width = 0;  // Image size in pixels; 0 = not given (taken from the images).
   int height = 0;
   double fps = 30.0;
-  double bf = 40.0;         // Baseline (metres) times fx (pixels), for virtual stereo.
-  bool rgb_order = true;    // Colour images are RGB (true) or BGR (false). rrslam reads
-                            // images through OpenCV, so this matters only for raw buffers.
-  double th_depth = 40.0;   // Close/far threshold in baselines (ORB-SLAM2's ThDepth).
+  double bf = 40.0;                  // Baseline (metres) times fx (pixels), for virtual stereo.
+  bool rgb_order = true;             // Colour images are RGB (true) or BGR (false). rrslam reads
+                                     // images through OpenCV, so this matters only for raw buffers.
+  double th_depth = 40.0;            // Close/far threshold in baselines (ORB-SLAM2's ThDepth).
   double depth_map_factor = 5000.0;  // Depth PNG units per metre.
   OrbSettings orb;
 
@@ -48,9 +48,7 @@ struct Settings {
   double Baseline() const { return bf / fx; }
   // Close/far depth threshold in metres, as ORB-SLAM2: bf * ThDepth / fx.
   double ThDepthMetres() const { return bf * th_depth / fx; }
-  PinholeCamera Camera() const {
-    return PinholeCamera(fx, fy, cx, cy, width, height, distortion);
-  }
+  PinholeCamera Camera() const { return PinholeCamera(fx, fy, cx, cy, width, height, distortion); }
 
   // Validates every field; on failure returns false and names the violated
   // constraint in `why` ("ORBextractor.nLevels = 0; must be in [1, 16]").

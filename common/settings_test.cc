@@ -57,8 +57,9 @@ TEST(Settings, FormatReadRoundTrip) {
 
 TEST(Settings, DefaultsApplyToOptionalKeys) {
   testing::TempDir dir;
-  testing::WriteTextFile(dir / "s.yaml",
-                         "%YAML:1.0\nCamera.fx: 500\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n");
+  testing::WriteTextFile(
+      dir / "s.yaml",
+      "%YAML:1.0\nCamera.fx: 500\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n");
   const Settings s = ReadSettings(dir / "s.yaml");
   EXPECT_TRUE(s.distortion.IsZero());
   EXPECT_EQ(s.width, 0);
@@ -79,11 +80,14 @@ void ExpectDataError(const std::string& text, const std::string& fragment) {
 }
 
 TEST(Settings, RejectsBadFiles) {
-  const std::string intrinsics = "%YAML:1.0\nCamera.fx: 500\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n";
+  const std::string intrinsics =
+      "%YAML:1.0\nCamera.fx: 500\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n";
   ExpectDataError("", "empty");
-  ExpectDataError("%YAML:1.0\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n", "missing Camera.fx");
+  ExpectDataError("%YAML:1.0\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n",
+                  "missing Camera.fx");
   ExpectDataError("%YAML:1.0\nCamera.fx: [1, 2\n", "not a valid settings YAML");
-  ExpectDataError(intrinsics + "ORBextractor.nLevels: 0\n", "ORBextractor.nLevels = 0; must be in [1, 16]");
+  ExpectDataError(intrinsics + "ORBextractor.nLevels: 0\n",
+                  "ORBextractor.nLevels = 0; must be in [1, 16]");
   ExpectDataError(intrinsics + "Camera.width: 640.5\n", "Camera.width");
   ExpectDataError(intrinsics + "Camera.k1: abc\n", "Camera.k1 is not a number");
   testing::TempDir dir;

@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "common/text.h"
 #include "common/atomic_file.h"
 #include "common/formats.h"
 #include "common/h5io.h"
 #include "common/testing.h"
+#include "common/text.h"
 
 namespace rrslam {
 namespace {

@@ -11,8 +11,8 @@
 #include <sstream>
 
 #include "common/atomic_file.h"
-#include "common/text.h"
 #include "common/testing.h"
+#include "common/text.h"
 
 namespace rrslam {
 namespace {
@@ -34,10 +34,10 @@ class TrackPipelineTest : public ::testing::Test {
     // 320 x 240 keeps rendering and extraction quick.
     run("synth", "--out " + Quote(seq()) + " --trajectory loop --frames " +
                      std::to_string(kFrames) + " --seed 3 --width 320 --height 240");
-    run("extract", "--sequence " + Quote(seq()) + " --settings " + Quote(settings()) +
-                       " --out " + Quote(features()));
-    run("cluster", "--features " + Quote(features()) + " --out " + Quote(path("tree.h5")) +
-                       " --k 8 -L 3");
+    run("extract", "--sequence " + Quote(seq()) + " --settings " + Quote(settings()) + " --out " +
+                       Quote(features()));
+    run("cluster",
+        "--features " + Quote(features()) + " --out " + Quote(path("tree.h5")) + " --k 8 -L 3");
     run("vocab", "build --tree " + Quote(path("tree.h5")) + " --features " + Quote(features()) +
                      " --out " + Quote(vocab()));
   }
@@ -63,7 +63,8 @@ class TrackPipelineTest : public ::testing::Test {
     EXPECT_EQ(r.exit_code, 0) << r.output;
     const size_t brace = r.output.find('{');
     if (brace == std::string::npos) return 1e9;
-    const nlohmann::json j = nlohmann::json::parse(r.output.substr(brace, r.output.rfind('}') - brace + 1));
+    const nlohmann::json j =
+        nlohmann::json::parse(r.output.substr(brace, r.output.rfind('}') - brace + 1));
     EXPECT_EQ(j.at("pairs").get<int>(), kFrames);
     return j.at("ate_m").at("rmse").get<double>();
   }

@@ -10,8 +10,8 @@
 #include <sstream>
 
 #include "common/atomic_file.h"
-#include "common/text.h"
 #include "common/testing.h"
+#include "common/text.h"
 
 namespace rrslam {
 namespace {

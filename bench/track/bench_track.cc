@@ -48,9 +48,7 @@ struct Figure {
 
 class Report {
  public:
-  void Add(const std::string& section, const Figure& f) {
-    figures_.emplace_back(section, f);
-  }
+  void Add(const std::string& section, const Figure& f) { figures_.emplace_back(section, f); }
   void Note(const std::string& section, const std::string& text) {
     notes_.emplace_back(section, text);
   }
@@ -157,13 +155,14 @@ int main(int argc, char** argv) {
       const size_t frames = Count(a.run, "frames");
       const size_t tracked = Count(a.run, "tracked");
       report.Note(s, "vocabulary " + a.run.at("vocabulary").get<std::string>());
-      report.Add(s, {"frames tracked", double(tracked), "of " + std::to_string(frames),
-                     "all", tracked == frames});
+      report.Add(s, {"frames tracked", double(tracked), "of " + std::to_string(frames), "all",
+                     tracked == frames});
       report.Add(s, {"ATE RMSE", a.ate_rmse_m * 100, "cm", "<= 4.3 cm", a.ate_rmse_m <= 0.043});
       const auto& t = a.run.at("timings");
       const double median = t.at("tracking").at("median_ms").get<double>();
       report.Add(s, {"tracking median (extraction incl.)", median, "ms", "<= 15 ms", median <= 15});
-      report.Add(s, {"tracking mean", t.at("tracking").at("mean_ms").get<double>(), "ms", "-", true});
+      report.Add(s,
+                 {"tracking mean", t.at("tracking").at("mean_ms").get<double>(), "ms", "-", true});
       report.Add(s, {"tracking p95", t.at("tracking").at("p95_ms").get<double>(), "ms", "-", true});
       report.Add(s, {"extraction median", t.at("extraction").at("median_ms").get<double>(), "ms",
                      "-", true});
@@ -176,9 +175,10 @@ int main(int argc, char** argv) {
       report.Add(s, {"total wall time", t.at("total_s").get<double>(), "s", "-", true});
       const double rss = a.run.at("peak_rss_mb").get<double>();
       report.Add(s, {"peak memory (max RSS)", rss, "MB", "<= 500 MB", rss <= 500});
-      const bool identical = a.trajectory == b.trajectory &&
-                             rrslam::ReadFileToString(runs / "kitchen-batch-1" / "KeyFrameTrajectory.txt") ==
-                                 rrslam::ReadFileToString(runs / "kitchen-batch-2" / "KeyFrameTrajectory.txt");
+      const bool identical =
+          a.trajectory == b.trajectory &&
+          rrslam::ReadFileToString(runs / "kitchen-batch-1" / "KeyFrameTrajectory.txt") ==
+              rrslam::ReadFileToString(runs / "kitchen-batch-2" / "KeyFrameTrajectory.txt");
       report.Add(s, {"two batch runs byte-identical", identical ? 1.0 : 0.0, "(1 = yes)", "yes",
                      identical});
     }
@@ -199,8 +199,9 @@ int main(int argc, char** argv) {
       const size_t max_queue = lm.at("max_queue").get<size_t>();
       const size_t processed = lm.at("keyframes_processed").get<size_t>();
       const size_t created = Count(rt.run, "keyframes_created");
-      report.Note(r, "keeping up: the mapping thread is busy less than the whole run, every "
-                     "keyframe is processed and the queue never holds more than 2");
+      report.Note(r,
+                  "keeping up: the mapping thread is busy less than the whole run, every "
+                  "keyframe is processed and the queue never holds more than 2");
       report.Add(r, {"frames tracked", double(tracked), "of " + std::to_string(frames), "all",
                      tracked == frames});
       report.Add(r, {"ATE RMSE", rt.ate_rmse_m * 100, "cm", "-", true});
@@ -210,8 +211,8 @@ int main(int argc, char** argv) {
       report.Add(r, {"longest keyframe queue", double(max_queue), "", "<= 2", max_queue <= 2});
       report.Add(r, {"aborted local BAs", double(lm.at("aborted_bundle_adjustments").get<size_t>()),
                      "of " + std::to_string(lm.at("bundle_adjustments").get<size_t>()), "-", true});
-      report.Add(r, {"tracking median", t.at("tracking").at("median_ms").get<double>(), "ms", "-",
-                     true});
+      report.Add(
+          r, {"tracking median", t.at("tracking").at("median_ms").get<double>(), "ms", "-", true});
     }
   } else {
     report.Note("7scenes-kitchen", "skipped: sequence or vocabulary not found");
@@ -243,9 +244,11 @@ int main(int argc, char** argv) {
                      tracked == frames});
       std::ostringstream g;
       g << "<= " << goal << " cm";
-      report.Add(s, {"ATE RMSE", res.ate_rmse_m * 100, "cm", g.str(), res.ate_rmse_m * 100 <= goal});
-      report.Add(s, {"tracking median", res.run.at("timings").at("tracking").at("median_ms").get<double>(),
-                     "ms", "-", true});
+      report.Add(s,
+                 {"ATE RMSE", res.ate_rmse_m * 100, "cm", g.str(), res.ate_rmse_m * 100 <= goal});
+      report.Add(
+          s, {"tracking median", res.run.at("timings").at("tracking").at("median_ms").get<double>(),
+              "ms", "-", true});
       report.Add(s, {"keyframes (final map)", double(Count(res.run, "keyframes")), "", "-", true});
     }
   }

@@ -178,12 +178,9 @@ bool EvalRpeOptions::Check(std::string* why) const {
 }
 
 nlohmann::ordered_json EvalRpeOptions::ToJson() const {
-  return {{"gt", gt_path.string()},
-          {"est", est_path.string()},
-          {"rpe", rpe.ToJson()},
-          {"json", json},
-          {"out", report_path.string()},
-          {"save_pairs", pairs_path.string()}};
+  return {{"gt", gt_path.string()},      {"est", est_path.string()},
+          {"rpe", rpe.ToJson()},         {"json", json},
+          {"out", report_path.string()}, {"save_pairs", pairs_path.string()}};
 }
 
 AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {

@@ -24,12 +24,12 @@
 namespace rrslam {
 
 struct EvalAteOptions {
-  std::filesystem::path gt_path;    // Ground-truth trajectory (TUM format). Required.
-  std::filesystem::path est_path;   // Estimated trajectory (TUM format). Required.
-  AteOptions ate;                   // Pairing, scale (ate.h).
-  bool json = false;                // Print JSON instead of the text report.
+  std::filesystem::path gt_path;      // Ground-truth trajectory (TUM format). Required.
+  std::filesystem::path est_path;     // Estimated trajectory (TUM format). Required.
+  AteOptions ate;                     // Pairing, scale (ate.h).
+  bool json = false;                  // Print JSON instead of the text report.
   std::filesystem::path report_path;  // Write the report here instead of `out`; empty: `out`.
-  std::filesystem::path plot_path;  // PNG plot (plot.h); empty: none. Must end in .png.
+  std::filesystem::path plot_path;    // PNG plot (plot.h); empty: none. Must end in .png.
   PlotOptions plot;
   // Pairs file (`gt_stamp gx gy gz est_stamp ex ey ez`, aligned estimate); empty: none.
   std::filesystem::path associations_path;
@@ -43,10 +43,10 @@ struct EvalAteOptions {
 };
 
 struct EvalRpeOptions {
-  std::filesystem::path gt_path;   // Ground-truth trajectory (TUM format). Required.
-  std::filesystem::path est_path;  // Estimated trajectory (TUM format). Required.
-  RpeOptions rpe;                  // Delta, lookup bound, error form (rpe.h).
-  bool json = false;               // Print JSON instead of the text report.
+  std::filesystem::path gt_path;      // Ground-truth trajectory (TUM format). Required.
+  std::filesystem::path est_path;     // Estimated trajectory (TUM format). Required.
+  RpeOptions rpe;                     // Delta, lookup bound, error form (rpe.h).
+  bool json = false;                  // Print JSON instead of the text report.
   std::filesystem::path report_path;  // Write the report here instead of `out`; empty: `out`.
   // Per-pair errors (`est_t0 est_t1 gt_t0 gt_t1 trans_m rot_deg`); empty: none.
   std::filesystem::path pairs_path;

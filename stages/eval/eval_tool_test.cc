@@ -6,10 +6,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
-#include "common/text.h"
 #include "common/atomic_file.h"
 #include "common/geometry.h"
 #include "common/testing.h"
+#include "common/text.h"
 #include "common/trajectory.h"
 
 namespace rrslam {
@@ -110,8 +110,8 @@ TEST_F(EvalTool, OutWritesTheReportToAFileInsteadOfStdout) {
   EXPECT_EQ(ate.output, "");
   const auto json = nlohmann::json::parse(ReadFileToString(dir_ / "ate.json"));
   EXPECT_EQ(json["pairs"], 150);
-  const auto rpe = RunStdout("rpe " + Inputs() + " --delta 1 --delta-unit f --out " +
-                             Quote(dir_ / "rpe.txt"));
+  const auto rpe =
+      RunStdout("rpe " + Inputs() + " --delta 1 --delta-unit f --out " + Quote(dir_ / "rpe.txt"));
   ASSERT_EQ(rpe.exit_code, 0) << rpe.output;
   EXPECT_EQ(rpe.output, "");
   EXPECT_NE(ReadFileToString(dir_ / "rpe.txt").find("compared_pose_pairs"), std::string::npos);

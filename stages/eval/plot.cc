@@ -9,8 +9,8 @@
 #include <string_view>
 
 #include "common/atomic_file.h"
-#include "common/image_io.h"
 #include "common/errors.h"
+#include "common/image_io.h"
 #include "stages/eval/association.h"
 
 namespace rrslam {

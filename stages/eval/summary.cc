@@ -90,8 +90,8 @@ std::string FormatSummaryTable(const std::vector<RunSummary>& runs) {
   double sum = 0;
   int evaluated = 0;
   for (const RunSummary& r : runs) {
-    out += "| " + r.name + " | " + Cell(r.frames) + " | " + Cell(r.tracked) + " | " +
-           Cell(r.lost) + " | " + Cell(r.keyframes) + " | ";
+    out += "| " + r.name + " | " + Cell(r.frames) + " | " + Cell(r.tracked) + " | " + Cell(r.lost) +
+           " | " + Cell(r.keyframes) + " | ";
     if (r.evaluated) {
       out += Fixed(100 * r.ate_rmse_m, 2) + " | " + Fixed(100 * r.ate_mean_m, 2) + " | " +
              Fixed(100 * r.ate_max_m, 2) + " | ";

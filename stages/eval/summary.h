@@ -18,12 +18,12 @@
 namespace rrslam {
 
 struct RunSummary {
-  std::string name;                     // The run folder's name.
-  bool evaluated = false;               // ate.json was found and read.
-  std::string failure;                  // Why not, when !evaluated.
+  std::string name;                                         // The run folder's name.
+  bool evaluated = false;                                   // ate.json was found and read.
+  std::string failure;                                      // Why not, when !evaluated.
   std::optional<int64_t> frames, tracked, lost, keyframes;  // From run.json.
   std::optional<double> tracking_median_ms;                 // From run.json.
-  int64_t pairs = 0;                    // ATE pairs.
+  int64_t pairs = 0;                                        // ATE pairs.
   double ate_rmse_m = 0, ate_mean_m = 0, ate_max_m = 0;
 };
 

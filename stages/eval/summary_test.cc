@@ -65,8 +65,8 @@ TEST(Summary, RejectsMalformedFilesAndMissingFolders) {
 TEST(Summary, ToolWritesTheTableAtomically) {
   testing::TempDir dir;
   MakeRun(dir / "kitchen", kAte, kRun);
-  const auto r = testing::RunTool("eval", "summary " + (dir / "kitchen").string() + " --out " +
-                                              (dir / "summary.md").string());
+  const auto r = testing::RunTool(
+      "eval", "summary " + (dir / "kitchen").string() + " --out " + (dir / "summary.md").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(ReadFileToString(dir / "summary.md").find("| kitchen |"), std::string::npos);
   EXPECT_EQ(testing::RunTool("eval", "summary " + (dir / "absent").string()).exit_code, 66);

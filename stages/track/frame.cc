@@ -6,19 +6,18 @@
 namespace rrslam {
 
 void FrameFeatures::FeaturesInArea(const SensorModel& sensor, double x, double y, double r,
-                                   int min_level, int max_level,
-                                   std::vector<uint32_t>* out) const {
+                                   int min_level, int max_level, std::vector<uint32_t>* out) const {
   const ImageBounds& b = sensor.bounds;
   const int min_col =
       std::max(0, static_cast<int>(std::floor((x - b.min_x - r) * sensor.grid_inv_cell_width)));
-  const int max_col = std::min(SensorModel::kGridCols - 1,
-                               static_cast<int>(std::floor((x - b.min_x + r) *
-                                                           sensor.grid_inv_cell_width)));
+  const int max_col =
+      std::min(SensorModel::kGridCols - 1,
+               static_cast<int>(std::floor((x - b.min_x + r) * sensor.grid_inv_cell_width)));
   const int min_row =
       std::max(0, static_cast<int>(std::floor((y - b.min_y - r) * sensor.grid_inv_cell_height)));
-  const int max_row = std::min(SensorModel::kGridRows - 1,
-                               static_cast<int>(std::floor((y - b.min_y + r) *
-                                                           sensor.grid_inv_cell_height)));
+  const int max_row =
+      std::min(SensorModel::kGridRows - 1,
+               static_cast<int>(std::floor((y - b.min_y + r) * sensor.grid_inv_cell_height)));
   if (min_col > max_col || min_row > max_row) return;
   const bool check_levels = min_level > 0 || max_level >= 0;
   for (int row = min_row; row <= max_row; ++row) {

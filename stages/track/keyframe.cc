@@ -29,16 +29,16 @@ std::vector<KeyFrame*> KeyFrame::CovisibleWithWeight(int min_weight) const {
 }
 
 int KeyFrame::Weight(const KeyFrame* other) const {
-  auto it = std::lower_bound(
-      connections_.begin(), connections_.end(), other->id(),
-      [](const Connection& c, KeyFrameId id) { return c.keyframe->id() < id; });
+  auto it =
+      std::lower_bound(connections_.begin(), connections_.end(), other->id(),
+                       [](const Connection& c, KeyFrameId id) { return c.keyframe->id() < id; });
   return it != connections_.end() && it->keyframe == other ? it->weight : 0;
 }
 
 void KeyFrame::SetConnection(KeyFrame* other, int weight) {
-  auto it = std::lower_bound(
-      connections_.begin(), connections_.end(), other->id(),
-      [](const Connection& c, KeyFrameId id) { return c.keyframe->id() < id; });
+  auto it =
+      std::lower_bound(connections_.begin(), connections_.end(), other->id(),
+                       [](const Connection& c, KeyFrameId id) { return c.keyframe->id() < id; });
   if (it != connections_.end() && it->keyframe == other) {
     if (it->weight == weight) return;
     it->weight = weight;
@@ -49,9 +49,9 @@ void KeyFrame::SetConnection(KeyFrame* other, int weight) {
 }
 
 void KeyFrame::RemoveConnection(const KeyFrame* other) {
-  auto it = std::lower_bound(
-      connections_.begin(), connections_.end(), other->id(),
-      [](const Connection& c, KeyFrameId id) { return c.keyframe->id() < id; });
+  auto it =
+      std::lower_bound(connections_.begin(), connections_.end(), other->id(),
+                       [](const Connection& c, KeyFrameId id) { return c.keyframe->id() < id; });
   if (it == connections_.end() || it->keyframe != other) return;
   connections_.erase(it);
   UpdateOrder();

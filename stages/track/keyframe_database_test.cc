@@ -80,7 +80,8 @@ TEST_F(KeyFrameDatabaseTest, RelocalizationCandidatesShareMostWordsAndScoreWell)
 
 TEST_F(KeyFrameDatabaseTest, CovisibleCandidatesAreGroupedUnderTheirBest) {
   // A and B covisible (20 shared points): one group, represented by A.
-  for (uint32_t i = 0; i < 20; ++i) MakeObservedPoint(&map_, {keyframes_[0], keyframes_[1]}, {i, i});
+  for (uint32_t i = 0; i < 20; ++i)
+    MakeObservedPoint(&map_, {keyframes_[0], keyframes_[1]}, {i, i});
   map_.UpdateConnections(keyframes_[0]);
   map_.UpdateConnections(keyframes_[1]);
   EXPECT_EQ(database_.DetectRelocalizationCandidates(Bow(Range(1, 20))),

@@ -1,10 +1,10 @@
 #include "stages/track/local_mapper.h"
 
+#include <spdlog/spdlog.h>
+
 #include <Eigen/SVD>
 #include <chrono>
 #include <cmath>
-
-#include <spdlog/spdlog.h>
 
 #include "stages/track/matcher.h"
 
@@ -313,10 +313,11 @@ void LocalMapper::Process(KeyFrame* keyframe, bool realtime) {
       adjuster_.Apply(map_);
       ++counters_.bundle_adjustments;
       const LocalBundleAdjustmentStats& st = adjuster_.stats();
-      spdlog::debug("local BA at keyframe {}: {} free + {} fixed keyframes, {} points, {} observations, "
-                    "{} outliers, cost {:.1f} -> {:.1f}",
-                    keyframe->id(), st.local_keyframes, st.fixed_keyframes, st.points, st.observations,
-                    st.outliers, st.initial_cost, st.final_cost);
+      spdlog::debug(
+          "local BA at keyframe {}: {} free + {} fixed keyframes, {} points, {} observations, "
+          "{} outliers, cost {:.1f} -> {:.1f}",
+          keyframe->id(), st.local_keyframes, st.fixed_keyframes, st.points, st.observations,
+          st.outliers, st.initial_cost, st.final_cost);
       if (adjuster_.stats().aborted) ++counters_.aborted_bundle_adjustments;
     }
     std::lock_guard<std::mutex> lock(map_->mutex());

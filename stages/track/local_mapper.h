@@ -55,18 +55,18 @@ RecentPointDecision ClassifyRecentPoint(const MapPoint& point, KeyFrameId curren
 // close depth (0 < depth <= th_depth) are each seen by at least `min_observers`
 // other keyframes at the same, a finer, or the next coarser octave
 // (ORB-SLAM2's KeyFrameCulling test).
-bool IsRedundantKeyFrame(const KeyFrame& keyframe, const SensorModel& sensor,
-                         int min_observers = 3, double redundancy = 0.9);
+bool IsRedundantKeyFrame(const KeyFrame& keyframe, const SensorModel& sensor, int min_observers = 3,
+                         double redundancy = 0.9);
 
 struct LocalMappingCounters {
-  size_t keyframes = 0;        // Keyframes processed.
+  size_t keyframes = 0;  // Keyframes processed.
   size_t culled_keyframes = 0;
-  size_t culled_points = 0;    // Recent points culled.
+  size_t culled_points = 0;  // Recent points culled.
   size_t triangulated_points = 0;
   size_t fused_points = 0;
   size_t bundle_adjustments = 0;
   size_t aborted_bundle_adjustments = 0;
-  size_t max_queue = 0;        // Longest keyframe queue seen (realtime).
+  size_t max_queue = 0;             // Longest keyframe queue seen (realtime).
   std::vector<double> keyframe_ms;  // Processing time of each keyframe.
 };
 

@@ -16,7 +16,8 @@ using testing::TestSensor;
 class CullingTest : public ::testing::Test {
  protected:
   KeyFrame* AddKeyFrame(float depth = 2.0f, int octave = 0, int n = 40) {
-    keyframes_.push_back(MakeGridKeyFrame(&map_, sensor_, n, Rigid3d::Identity(), rng_, depth, octave));
+    keyframes_.push_back(
+        MakeGridKeyFrame(&map_, sensor_, n, Rigid3d::Identity(), rng_, depth, octave));
     return keyframes_.back();
   }
 
@@ -32,7 +33,7 @@ TEST_F(CullingTest, RecentPointsRarelyFoundAreCulled) {
   MapPoint* point = MakeObservedPoint(&map_, {k0, k1}, {0, 0});
   point->IncreaseVisible(9);  // Visible 10, found 1: 10 %.
   EXPECT_EQ(ClassifyRecentPoint(*point, k1->id()), RecentPointDecision::kCull);
-  point->IncreaseFound(2);    // 30 %.
+  point->IncreaseFound(2);  // 30 %.
   EXPECT_EQ(ClassifyRecentPoint(*point, k1->id()), RecentPointDecision::kWatch);
 }
 
@@ -61,7 +62,8 @@ TEST_F(CullingTest, RecentPointsNeedMoreThanThreeObservationsAfterTwoKeyFrames) 
 
 TEST_F(CullingTest, KeyFrameRedundantWhenNinetyPercentOfCloseMapPointsSeenByThreeOthers) {
   KeyFrame* target = AddKeyFrame(2.0f, /*octave=*/1);
-  std::vector<KeyFrame*> others = {AddKeyFrame(2.0f, 0), AddKeyFrame(2.0f, 1), AddKeyFrame(2.0f, 2)};
+  std::vector<KeyFrame*> others = {AddKeyFrame(2.0f, 0), AddKeyFrame(2.0f, 1),
+                                   AddKeyFrame(2.0f, 2)};
   // 10 close points, all seen by the three others at octaves 0, 1, 2 (<= 1 + 1).
   for (uint32_t i = 0; i < 10; ++i) {
     MakeObservedPoint(&map_, {target, others[0], others[1], others[2]}, {i, i, i, i});
@@ -78,7 +80,8 @@ TEST_F(CullingTest, KeyFrameRedundantWhenNinetyPercentOfCloseMapPointsSeenByThre
 TEST_F(CullingTest, KeyFrameRedundancyCountsOnlySameOrFinerScaleObservers) {
   KeyFrame* target = AddKeyFrame(2.0f, /*octave=*/0);
   // Two observers at octave 0 or 1, one at octave 2 (coarser than 0 + 1).
-  std::vector<KeyFrame*> others = {AddKeyFrame(2.0f, 0), AddKeyFrame(2.0f, 1), AddKeyFrame(2.0f, 2)};
+  std::vector<KeyFrame*> others = {AddKeyFrame(2.0f, 0), AddKeyFrame(2.0f, 1),
+                                   AddKeyFrame(2.0f, 2)};
   for (uint32_t i = 0; i < 10; ++i) {
     MakeObservedPoint(&map_, {target, others[0], others[1], others[2]}, {i, i, i, i});
   }

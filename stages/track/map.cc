@@ -11,8 +11,7 @@ KeyFrame* Map::CreateKeyFrame(const Frame& frame) {
   return keyframes_.back().get();
 }
 
-MapPoint* Map::CreateMapPoint(const Eigen::Vector3d& position_world,
-                              KeyFrame* reference_keyframe) {
+MapPoint* Map::CreateMapPoint(const Eigen::Vector3d& position_world, KeyFrame* reference_keyframe) {
   map_points_.push_back(
       std::make_unique<MapPoint>(map_points_.size(), position_world, reference_keyframe));
   map_point_in_map_.push_back(0);
@@ -111,7 +110,8 @@ void Map::UpdateConnections(KeyFrame* keyframe) {
     if (point == nullptr || point->bad()) continue;
     for (const MapPoint::Observation& o : point->observations()) {
       if (o.keyframe == keyframe || o.keyframe->bad()) continue;
-      auto [it, inserted] = counter.try_emplace(o.keyframe->id(), KeyFrame::Connection{o.keyframe, 0});
+      auto [it, inserted] =
+          counter.try_emplace(o.keyframe->id(), KeyFrame::Connection{o.keyframe, 0});
       ++it->second.weight;
     }
   }
@@ -165,7 +165,8 @@ bool Map::CullKeyFrame(KeyFrame* keyframe) {
     for (KeyFrame* child : children) {
       if (child->bad()) continue;
       for (KeyFrame* neighbour : child->covisible()) {
-        if (std::find(candidates.begin(), candidates.end(), neighbour) == candidates.end()) continue;
+        if (std::find(candidates.begin(), candidates.end(), neighbour) == candidates.end())
+          continue;
         const int w = child->Weight(neighbour);
         if (w > best_weight) {
           best_weight = w;

@@ -87,7 +87,7 @@ class Map {
   std::mutex& mutex() const { return mutex_; }
 
  private:
-  std::vector<std::unique_ptr<KeyFrame>> keyframes_;  // Index = id.
+  std::vector<std::unique_ptr<KeyFrame>> keyframes_;   // Index = id.
   std::vector<std::unique_ptr<MapPoint>> map_points_;  // Index = id.
   std::vector<uint8_t> keyframe_in_map_;
   std::vector<uint8_t> map_point_in_map_;

@@ -22,9 +22,9 @@ int MapPoint::IndexIn(const KeyFrame* keyframe) const {
 }
 
 void MapPoint::AddObservation(KeyFrame* keyframe, uint32_t index) {
-  auto it = std::lower_bound(
-      observations_.begin(), observations_.end(), keyframe->id(),
-      [](const Observation& o, KeyFrameId id) { return o.keyframe->id() < id; });
+  auto it =
+      std::lower_bound(observations_.begin(), observations_.end(), keyframe->id(),
+                       [](const Observation& o, KeyFrameId id) { return o.keyframe->id() < id; });
   if (it != observations_.end() && it->keyframe == keyframe) return;
   observations_.insert(it, {keyframe, index});
   num_observations_ += keyframe->features().HasDepth(index) ? 2 : 1;

@@ -19,8 +19,8 @@ class MapTest : public ::testing::Test {
   void MakeKeyFrames(int n, float depth = 2.0f) {
     for (int k = 0; k < n; ++k) {
       keyframes_.push_back(MakeGridKeyFrame(
-          &map_, sensor_, 200, Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-0.1 * k, 0, 0)),
-          rng_, depth));
+          &map_, sensor_, 200,
+          Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-0.1 * k, 0, 0)), rng_, depth));
     }
   }
   // `count` points seen by keyframes a and b (next unused keypoints of each).
@@ -205,9 +205,9 @@ TEST_F(MapTest, NormalAndScaleDistancesFollowTheObservations) {
   // A point 2 m in front of keyframe 0 (at the origin) and seen by keyframe 2
   // (at x = 0.2), observed on octave 2 by its reference keyframe 0.
   keyframes_.push_back(MakeGridKeyFrame(&map_, sensor_, 10, Rigid3d::Identity(), rng_, 2.0f, 2));
-  keyframes_.push_back(MakeGridKeyFrame(
-      &map_, sensor_, 10, Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-0.2, 0, 0)),
-      rng_));
+  keyframes_.push_back(
+      MakeGridKeyFrame(&map_, sensor_, 10,
+                       Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-0.2, 0, 0)), rng_));
   const Eigen::Vector3d position(0, 0, 2);
   MapPoint* point = MakeObservedPoint(&map_, keyframes_, {0, 0}, position);
   point->UpdateNormalAndDepth(sensor_.pyramid);

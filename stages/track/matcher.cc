@@ -122,8 +122,7 @@ Eigen::Matrix3d FundamentalMatrix(const SensorModel& sensor, const KeyFrame& kf1
   const Eigen::Matrix3d R1w = kf1.R_cam_world();
   const Eigen::Matrix3d R2w = kf2.R_cam_world();
   const Eigen::Matrix3d R12 = R1w * R2w.transpose();
-  const Eigen::Vector3d t12 =
-      -R12 * kf2.T_cam_world().translation + kf1.T_cam_world().translation;
+  const Eigen::Vector3d t12 = -R12 * kf2.T_cam_world().translation + kf1.T_cam_world().translation;
   const Eigen::Matrix3d K = sensor.camera.K();
   const Eigen::Matrix3d K_inv = K.inverse();
   return K_inv.transpose() * Skew(t12) * R12 * K_inv;

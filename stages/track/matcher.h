@@ -87,8 +87,7 @@ class Matcher {
   // th * (2.5 px when seen head-on, else 4 px) * scale of the predicted level,
   // on the predicted level and the one below, with the ratio test when the
   // two best candidates share a level. Returns the number of new matches.
-  int SearchByProjection(Frame* frame, const std::vector<ProjectedPoint>& points,
-                         double th) const;
+  int SearchByProjection(Frame* frame, const std::vector<ProjectedPoint>& points, double th) const;
 
   // BoW search between a keyframe's map points and a frame's keypoints (both
   // with BoW computed). `matches` gets one map point (or nullptr) per frame
@@ -102,8 +101,8 @@ class Matcher {
   // has depth, kf2 keypoints close to the epipole are skipped. With
   // `only_with_depth`, both keypoints need depth. Each kf2 keypoint is used
   // once. Returns pairs ordered by kf1 index.
-  int SearchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2,
-                             const Eigen::Matrix3d& F12, bool only_with_depth,
+  int SearchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2, const Eigen::Matrix3d& F12,
+                             bool only_with_depth,
                              std::vector<std::pair<uint32_t, uint32_t>>* pairs) const;
 
   // Projects `points` into `keyframe` and fuses each with the best keypoint

@@ -110,9 +110,9 @@ TEST_F(ProjectionSearchTest, MotionModelMatchesTheLastFramesPoints) {
 
 TEST_F(ProjectionSearchTest, MotionModelFindsNothingFromAFarWrongPose) {
   // A prediction 0.5 m off puts projections tens of pixels from the truth.
-  Frame current = MakeFrame(sensor_, current_view_, 1,
-                            Rigid3d(T_current_.rotation,
-                                    T_current_.translation + Eigen::Vector3d(0.5, 0, 0)));
+  Frame current =
+      MakeFrame(sensor_, current_view_, 1,
+                Rigid3d(T_current_.rotation, T_current_.translation + Eigen::Vector3d(0.5, 0, 0)));
   const Matcher matcher(sensor_, 0.9, true);
   matcher.SearchByProjection(&current, last_, 7.0);
   const auto [precision, matched] = Score(current);
@@ -151,8 +151,7 @@ TEST_F(ProjectionSearchTest, ProjectIntoViewRejectsPointsOutOfView) {
   const Eigen::Vector2d expected = sensor_.Project(current.ToCamera(point->position_world()));
   EXPECT_NEAR(pp.u, expected.x(), 1e-9);
   EXPECT_NEAR(pp.v, expected.y(), 1e-9);
-  EXPECT_NEAR(pp.u_right, pp.u - sensor_.bf / current.ToCamera(point->position_world()).z(),
-              1e-9);
+  EXPECT_NEAR(pp.u_right, pp.u - sensor_.bf / current.ToCamera(point->position_world()).z(), 1e-9);
   EXPECT_GT(pp.view_cos, 0.99);
 
   // Behind the camera.
@@ -161,8 +160,8 @@ TEST_F(ProjectionSearchTest, ProjectIntoViewRejectsPointsOutOfView) {
                                Eigen::Vector3d::Zero(), point, 0.5, &pp));
   // Beyond its scale-invariance distance.
   const Eigen::Vector3d far_back(0, 0, -20);
-  EXPECT_FALSE(ProjectIntoView(sensor_, Eigen::Matrix3d::Identity(), -far_back, far_back, point,
-                               0.5, &pp));
+  EXPECT_FALSE(
+      ProjectIntoView(sensor_, Eigen::Matrix3d::Identity(), -far_back, far_back, point, 0.5, &pp));
   // Seen at 70 degrees from its normal.
   const Eigen::Vector3d n = point->normal();
   const Eigen::Vector3d perpendicular = n.cross(Eigen::Vector3d::UnitY()).normalized();

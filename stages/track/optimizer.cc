@@ -28,7 +28,7 @@ class AbortCallback final : public ceres::IterationCallback {
   explicit AbortCallback(const std::atomic<bool>* flag) : flag_(flag) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
     return flag_->load(std::memory_order_relaxed) ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
-                                                   : ceres::SOLVER_CONTINUE;
+                                                  : ceres::SOLVER_CONTINUE;
   }
 
  private:
@@ -72,11 +72,11 @@ int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
     if (m.with_depth) {
       const Eigen::Vector3d observed(kp.undistorted.x(), kp.undistorted.y(), f.u_right[i]);
       m.cost = std::make_unique<PoseOnlyReprojectionError<3>>(k, observed, inv_sigma,
-                                                               point->position_world());
+                                                              point->position_world());
     } else {
       const Eigen::Vector2d observed(kp.undistorted.x(), kp.undistorted.y());
       m.cost = std::make_unique<PoseOnlyReprojectionError<2>>(k, observed, inv_sigma,
-                                                               point->position_world());
+                                                              point->position_world());
     }
     matches.push_back(std::move(m));
   }
@@ -247,7 +247,8 @@ void LocalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
       if (!keyframe_used[o.keyframe]) {
         keyframe_used[o.keyframe] = 1;
         problem.AddParameterBlock(poses_[o.keyframe].data(), 7, PoseManifold());
-        if (keyframe_fixed_[o.keyframe]) problem.SetParameterBlockConstant(poses_[o.keyframe].data());
+        if (keyframe_fixed_[o.keyframe])
+          problem.SetParameterBlockConstant(poses_[o.keyframe].data());
         ordering->AddElementToGroup(poses_[o.keyframe].data(), 1);
       }
       if (!point_used[o.point]) {
@@ -323,7 +324,8 @@ void LocalBundleAdjuster::Apply(Map* map) {
     map->EraseObservation(point, kf);
   }
   for (size_t i = 0; i < keyframes_.size(); ++i) {
-    if (!keyframe_fixed_[i] && !keyframes_[i]->bad()) keyframes_[i]->SetPose(FromPoseBlock(poses_[i]));
+    if (!keyframe_fixed_[i] && !keyframes_[i]->bad())
+      keyframes_[i]->SetPose(FromPoseBlock(poses_[i]));
   }
   for (size_t p = 0; p < points_.size(); ++p) {
     MapPoint* point = points_[p];

@@ -25,9 +25,9 @@ inline constexpr double kChi2TwoDof = 5.991;
 inline constexpr double kChi2ThreeDof = 7.815;
 
 struct PoseOptimizationOptions {
-  int rounds = 4;                // Outlier classification rounds (ORB-SLAM2: 4).
-  int iterations_per_round = 10; // Levenberg-Marquardt iterations per round.
-  int robust_rounds = 3;         // Rounds that use the Huber loss (the last runs without).
+  int rounds = 4;                 // Outlier classification rounds (ORB-SLAM2: 4).
+  int iterations_per_round = 10;  // Levenberg-Marquardt iterations per round.
+  int robust_rounds = 3;          // Rounds that use the Huber loss (the last runs without).
 };
 
 // Refines frame->T_cam_world() from the frame's map-point matches (points

@@ -77,7 +77,8 @@ TEST(PoseOptimizationTest, RecoversPoseWithThirtyPercentOutliers) {
   Frame frame = MakeFrame(sensor, view, 0, T_start);
   Map map;
   std::vector<MapPoint*> points;
-  for (const testing::ScenePoint& p : scene) points.push_back(map.CreateMapPoint(p.position, nullptr));
+  for (const testing::ScenePoint& p : scene)
+    points.push_back(map.CreateMapPoint(p.position, nullptr));
   std::uniform_real_distribution<double> u(0, 1);
   std::uniform_int_distribution<size_t> any(0, scene.size() - 1);
   std::vector<uint8_t> wrong(frame.size(), 0);
@@ -88,9 +89,9 @@ TEST(PoseOptimizationTest, RecoversPoseWithThirtyPercentOutliers) {
       size_t q;
       do {
         q = any(rng);
-      } while ((sensor.Project(T_true * scene[q].position) -
-                sensor.Project(T_true * scene[p].position))
-                   .norm() < 20);
+      } while (
+          (sensor.Project(T_true * scene[q].position) - sensor.Project(T_true * scene[p].position))
+              .norm() < 20);
       p = q;
       wrong[i] = 1;
     }
@@ -174,7 +175,8 @@ TEST_F(LocalBundleAdjustmentTest, ReturnsPerturbedProblemToTheTruth) {
   }
   for (size_t p = 0; p < points_.size(); ++p) {
     if (points_[p] == nullptr) continue;
-    points_[p]->SetPosition(scene_[p].position + Eigen::Vector3d(noise(rng_), noise(rng_), noise(rng_)));
+    points_[p]->SetPosition(scene_[p].position +
+                            Eigen::Vector3d(noise(rng_), noise(rng_), noise(rng_)));
   }
   LocalBundleAdjuster adjuster(sensor_);
   adjuster.Collect(keyframes_.back(), map_);

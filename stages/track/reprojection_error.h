@@ -26,8 +26,8 @@ struct ProjectionParameters {
   double fx, fy, cx, cy, bf;
 };
 
-using PoseManifoldType = ceres::ProductManifold<ceres::EigenQuaternionManifold,
-                                                ceres::EuclideanManifold<3>>;
+using PoseManifoldType =
+    ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
 // One shared instance (stateless, thread-safe). Problems must not own it:
 // use Problem::Options::manifold_ownership = DO_NOT_TAKE_OWNERSHIP.
 ceres::Manifold* PoseManifold();
@@ -45,9 +45,9 @@ inline Eigen::Matrix3d SkewOf(const Eigen::Vector3d& v) {
 // row-major) and the point (N x 3, row-major). Returns false when the point
 // is not in front of the camera.
 template <int N>
-bool EvaluateReprojection(const ProjectionParameters& k, const double* observed,
-                          double inv_sigma, const double* pose, const double* point,
-                          double* residuals, double* jacobian_pose, double* jacobian_point) {
+bool EvaluateReprojection(const ProjectionParameters& k, const double* observed, double inv_sigma,
+                          const double* pose, const double* point, double* residuals,
+                          double* jacobian_pose, double* jacobian_point) {
   const Eigen::Map<const Eigen::Quaterniond> q(pose);
   const Eigen::Map<const Eigen::Vector3d> t(pose + 4);
   const Eigen::Map<const Eigen::Vector3d> p(point);
@@ -88,9 +88,8 @@ bool EvaluateReprojection(const ProjectionParameters& k, const double* observed,
     const Eigen::Vector3d vq(q.x(), q.y(), q.z());
     const double w = q.w();
     Eigen::Matrix<double, 3, 4> dpc_dq;
-    dpc_dq.leftCols<3>() =
-        2.0 * (-w * SkewOf(p) + vq.dot(p) * Eigen::Matrix3d::Identity() + vq * p.transpose() -
-               2.0 * p * vq.transpose());
+    dpc_dq.leftCols<3>() = 2.0 * (-w * SkewOf(p) + vq.dot(p) * Eigen::Matrix3d::Identity() +
+                                  vq * p.transpose() - 2.0 * p * vq.transpose());
     dpc_dq.col(3) = 2.0 * vq.cross(p);
     Eigen::Map<Eigen::Matrix<double, N, 7, Eigen::RowMajor>> Jp(jacobian_pose);
     Jp.template leftCols<4>() = J * dpc_dq;
@@ -109,16 +108,16 @@ bool EvaluateReprojection(const ProjectionParameters& k, const double* observed,
 template <int N>
 class PoseOnlyReprojectionError final : public ceres::SizedCostFunction<N, 7> {
  public:
-  PoseOnlyReprojectionError(const ProjectionParameters& k, const Eigen::Matrix<double, N, 1>& observed,
-                            double inv_sigma, const Eigen::Vector3d& point_world)
+  PoseOnlyReprojectionError(const ProjectionParameters& k,
+                            const Eigen::Matrix<double, N, 1>& observed, double inv_sigma,
+                            const Eigen::Vector3d& point_world)
       : k_(k), observed_(observed), inv_sigma_(inv_sigma), point_(point_world) {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
-    return internal::EvaluateReprojection<N>(k_, observed_.data(), inv_sigma_, parameters[0],
-                                             point_.data(), residuals,
-                                             jacobians != nullptr ? jacobians[0] : nullptr,
-                                             nullptr);
+    return internal::EvaluateReprojection<N>(
+        k_, observed_.data(), inv_sigma_, parameters[0], point_.data(), residuals,
+        jacobians != nullptr ? jacobians[0] : nullptr, nullptr);
   }
 
  private:
@@ -138,10 +137,10 @@ class ReprojectionError final : public ceres::SizedCostFunction<N, 7, 3> {
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
-    return internal::EvaluateReprojection<N>(
-        k_, observed_.data(), inv_sigma_, parameters[0], parameters[1], residuals,
-        jacobians != nullptr ? jacobians[0] : nullptr,
-        jacobians != nullptr ? jacobians[1] : nullptr);
+    return internal::EvaluateReprojection<N>(k_, observed_.data(), inv_sigma_, parameters[0],
+                                             parameters[1], residuals,
+                                             jacobians != nullptr ? jacobians[0] : nullptr,
+                                             jacobians != nullptr ? jacobians[1] : nullptr);
   }
 
  private:

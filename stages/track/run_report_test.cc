@@ -34,7 +34,8 @@ TEST(SummarizeTimingsTest, MedianMeanPercentileMax) {
 }
 
 bool SamePose(const Rigid3d& a, const Rigid3d& b) {
-  return (a.translation - b.translation).norm() < 1e-12 && RotationAngle(a.rotation, b.rotation) < 1e-9;
+  return (a.translation - b.translation).norm() < 1e-12 &&
+         RotationAngle(a.rotation, b.rotation) < 1e-9;
 }
 
 TEST(ResolveCameraTrajectoryTest, FramesFollowTheirKeyFramesThroughCulledOnes) {

@@ -23,8 +23,8 @@ struct ScalePyramid {
   explicit ScalePyramid(const OrbSettings& orb);
 
   int n_levels = 1;
-  double scale_factor = 1.2;      // Scale between consecutive levels.
-  double log_scale_factor = 0.0;  // log(scale_factor).
+  double scale_factor = 1.2;       // Scale between consecutive levels.
+  double log_scale_factor = 0.0;   // log(scale_factor).
   std::vector<double> scale;       // scale_factor^l.
   std::vector<double> inv_scale;   // 1 / scale[l].
   std::vector<double> sigma2;      // scale[l]^2, level-0 px^2.
@@ -40,13 +40,13 @@ struct SensorModel {
   static constexpr int kGridCols = 64;
   static constexpr int kGridRows = 48;
 
-  PinholeCamera camera;   // Intrinsics and distortion (keypoints are undistorted once).
+  PinholeCamera camera;  // Intrinsics and distortion (keypoints are undistorted once).
   double fx = 1, fy = 1, cx = 0, cy = 0;
   double inv_fx = 1, inv_fy = 1;
-  double bf = 40.0;             // Baseline (m) times fx (px): u_R = u - bf / depth.
-  double baseline = 0.0;        // bf / fx, metres.
-  double th_depth = 0.0;        // Close/far threshold in metres (bf * ThDepth / fx).
-  ImageBounds bounds;           // Ideal-pixel bounds of the image.
+  double bf = 40.0;                 // Baseline (m) times fx (px): u_R = u - bf / depth.
+  double baseline = 0.0;            // bf / fx, metres.
+  double th_depth = 0.0;            // Close/far threshold in metres (bf * ThDepth / fx).
+  ImageBounds bounds;               // Ideal-pixel bounds of the image.
   double grid_inv_cell_width = 0;   // Cells per pixel along u.
   double grid_inv_cell_height = 0;  // Cells per pixel along v.
   ScalePyramid pyramid;

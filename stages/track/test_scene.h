@@ -116,8 +116,8 @@ inline SyntheticView RenderView(const SensorModel& sensor, const std::vector<Sce
 
 inline Frame MakeFrame(const SensorModel& sensor, const SyntheticView& view, uint64_t id,
                        const Rigid3d& T_cam_world) {
-  Frame frame(id, static_cast<double>(id), BuildFrameFeatures(sensor, view.keypoints,
-                                                               view.descriptors));
+  Frame frame(id, static_cast<double>(id),
+              BuildFrameFeatures(sensor, view.keypoints, view.descriptors));
   frame.SetPose(T_cam_world);
   return frame;
 }
@@ -149,8 +149,8 @@ namespace rrslam::testing {
 // A keyframe (added to the map) with `n` keypoints on a grid, each with
 // `depth` metres (0 = none) and octave `octave`, random descriptors.
 inline KeyFrame* MakeGridKeyFrame(Map* map, const SensorModel& sensor, int n,
-                                  const Rigid3d& T_cam_world, std::mt19937& rng,
-                                  float depth = 2.0f, int octave = 0) {
+                                  const Rigid3d& T_cam_world, std::mt19937& rng, float depth = 2.0f,
+                                  int octave = 0) {
   SyntheticView view;
   for (int i = 0; i < n; ++i) {
     Keypoint kp;
@@ -162,7 +162,8 @@ inline KeyFrame* MakeGridKeyFrame(Map* map, const SensorModel& sensor, int n,
     view.descriptors.push_back(RandomDescriptor(rng));
     view.point_of.push_back(i);
   }
-  KeyFrame* kf = map->CreateKeyFrame(MakeFrame(sensor, view, map->num_created_keyframes(), T_cam_world));
+  KeyFrame* kf =
+      map->CreateKeyFrame(MakeFrame(sensor, view, map->num_created_keyframes(), T_cam_world));
   map->AddKeyFrame(kf);
   return kf;
 }
@@ -172,7 +173,8 @@ inline MapPoint* MakeObservedPoint(Map* map, const std::vector<KeyFrame*>& keyfr
                                    const std::vector<uint32_t>& indices,
                                    const Eigen::Vector3d& position = Eigen::Vector3d(0, 0, 2)) {
   MapPoint* point = map->CreateMapPoint(position, keyframes.front());
-  for (size_t j = 0; j < keyframes.size(); ++j) map->AddObservation(point, keyframes[j], indices[j]);
+  for (size_t j = 0; j < keyframes.size(); ++j)
+    map->AddObservation(point, keyframes[j], indices[j]);
   map->AddMapPoint(point);
   return point;
 }

@@ -4,9 +4,9 @@
 #include <sys/resource.h>
 
 #include <chrono>
-#include <cstdlib>
 #include <cmath>
 #include <condition_variable>
+#include <cstdlib>
 #include <deque>
 #include <exception>
 #include <fstream>
@@ -52,8 +52,8 @@ class ImagePrefetcher {
     double load_ms = 0;
   };
 
-  ImagePrefetcher(const RgbdSequence& sequence, std::vector<size_t> frames,
-                  double depth_map_factor, size_t capacity = 4)
+  ImagePrefetcher(const RgbdSequence& sequence, std::vector<size_t> frames, double depth_map_factor,
+                  size_t capacity = 4)
       : sequence_(sequence),
         frames_(std::move(frames)),
         depth_map_factor_(depth_map_factor),
@@ -262,7 +262,8 @@ TrackSummary RunTrack(const TrackOptions& options) {
                     " frame(s) to track; tracking needs at least 2");
   }
   const Vocabulary vocabulary = Vocabulary::Load(options.vocabulary);
-  if (vocabulary.empty()) throw DataError(options.vocabulary.string() + ": vocabulary has no words");
+  if (vocabulary.empty())
+    throw DataError(options.vocabulary.string() + ": vocabulary has no words");
 
   // The image size comes from the settings or from the first image.
   int width = settings.width, height = settings.height;
@@ -395,14 +396,13 @@ TrackSummary RunTrack(const TrackOptions& options) {
                              {"bundle_adjustments", counters.bundle_adjustments},
                              {"aborted_bundle_adjustments", counters.aborted_bundle_adjustments},
                              {"max_queue", counters.max_queue}};
-  report["timings"] = {
-      {"tracking", ToJson(tracking)},
-      {"extraction", ToJson(SummarizeTimings(extraction_ms))},
-      {"local_mapping", ToJson(SummarizeTimings(counters.keyframe_ms))},
-      {"image_loading", ToJson(SummarizeTimings(loading_ms))},
-      {"loop_s", loop_s},
-      {"total_s", std::chrono::duration<double>(Clock::now() - run_start).count()},
-      {"frame_rate_hz", frames.size() / loop_s}};
+  report["timings"] = {{"tracking", ToJson(tracking)},
+                       {"extraction", ToJson(SummarizeTimings(extraction_ms))},
+                       {"local_mapping", ToJson(SummarizeTimings(counters.keyframe_ms))},
+                       {"image_loading", ToJson(SummarizeTimings(loading_ms))},
+                       {"loop_s", loop_s},
+                       {"total_s", std::chrono::duration<double>(Clock::now() - run_start).count()},
+                       {"frame_rate_hz", frames.size() / loop_s}};
   report["peak_rss_mb"] = PeakRssMegabytes();
   write("run.json", report.dump(2) + "\n");
   output.Commit();

@@ -152,7 +152,8 @@ TEST_F(TrackToolTest, FeaturesFileMustMatchSequenceAndSettings) {
       FrameRecord record;
       record.rgb_timestamp = 100 + 0.05 * i;
       record.depth_timestamp = record.rgb_timestamp;
-      record.rgb_path = i == 0 ? first_rgb : (dir_ / "seq" / "rgb" / (std::to_string(i) + ".png")).string();
+      record.rgb_path =
+          i == 0 ? first_rgb : (dir_ / "seq" / "rgb" / (std::to_string(i) + ".png")).string();
       record.depth_path = (dir_ / "seq" / "depth" / (std::to_string(i) + ".png")).string();
       std::vector<Keypoint> kps(10);
       std::vector<OrbDescriptor> ds(10);

@@ -1,10 +1,10 @@
 #include "stages/track/tracker.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cstdlib>
 #include <map>
-
-#include <spdlog/spdlog.h>
 
 #include "stages/track/optimizer.h"
 
@@ -148,8 +148,7 @@ bool Tracker::TrackWithMotionModel() {
   int matches = matcher.SearchByProjection(&current_, last_frame_, options_.motion_search_radius);
   if (matches < options_.min_motion_matches) {
     std::fill(current_.map_points.begin(), current_.map_points.end(), nullptr);
-    matches =
-        matcher.SearchByProjection(&current_, last_frame_, 2 * options_.motion_search_radius);
+    matches = matcher.SearchByProjection(&current_, last_frame_, 2 * options_.motion_search_radius);
   }
   if (matches < options_.min_motion_matches) return false;
   OptimizeFramePose(sensor_, &current_);
@@ -200,8 +199,9 @@ bool Tracker::TrackLocalMap() {
   for (MapPoint* p : current_.map_points) before += p != nullptr;
   const int found = SearchLocalPoints();
   OptimizeFramePose(sensor_, &current_);
-  spdlog::debug("frame {}: {} matched before local map, {} local keyframes, {} local points, {} found",
-                current_.id(), before, local_keyframes_.size(), local_points_.size(), found);
+  spdlog::debug(
+      "frame {}: {} matched before local map, {} local keyframes, {} local points, {} found",
+      current_.id(), before, local_keyframes_.size(), local_points_.size(), found);
   matches_inliers_ = 0;
   for (size_t i = 0; i < current_.size(); ++i) {
     MapPoint* point = current_.map_points[i];
@@ -342,8 +342,8 @@ bool Tracker::NeedNewKeyFrame() const {
   const bool c1a = id >= last_keyframe_frame_id_ + max_gap;
   const bool c1b = mapper_idle;
   const bool c1c = matches_inliers_ < reference_matches * 0.25 || need_close;
-  const bool c2 = (matches_inliers_ < reference_matches * ratio || need_close) &&
-                  matches_inliers_ > 15;
+  const bool c2 =
+      (matches_inliers_ < reference_matches * ratio || need_close) && matches_inliers_ > 15;
   if (!((c1a || c1b || c1c) && c2)) return false;
   if (mapper_idle) return true;
   mapper_->InterruptBundleAdjustment();

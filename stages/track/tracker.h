@@ -33,11 +33,11 @@ struct TrackerOptions {
   int min_initial_points = 200;
   // Motion model search window (pixels at level 0; doubled on a retry).
   double motion_search_radius = 7.0;
-  int min_motion_matches = 20;  // Projection matches needed before pose optimization.
-  int min_bow_matches = 15;     // BoW matches needed to track the reference keyframe.
-  int min_pose_inliers = 10;    // Map inliers needed after either pose optimization.
-  int min_local_map_inliers = 30;           // After local-map tracking.
-  int min_local_map_inliers_resumed = 50;   // ... within max_keyframe_gap frames of a resume.
+  int min_motion_matches = 20;             // Projection matches needed before pose optimization.
+  int min_bow_matches = 15;                // BoW matches needed to track the reference keyframe.
+  int min_pose_inliers = 10;               // Map inliers needed after either pose optimization.
+  int min_local_map_inliers = 30;          // After local-map tracking.
+  int min_local_map_inliers_resumed = 50;  // ... within max_keyframe_gap frames of a resume.
   // Keyframe decision (ORB-SLAM2): at most this many frames without a keyframe
   // (the camera frame rate), ...
   int max_keyframe_gap = 30;
@@ -68,8 +68,8 @@ class Tracker {
 
   // All references must outlive the tracker. `mapper` receives the new
   // keyframes through LocalMapper::Enqueue().
-  Tracker(const SensorModel& sensor, const Vocabulary& vocabulary, Map* map,
-          LocalMapper* mapper, const TrackerOptions& options = {});
+  Tracker(const SensorModel& sensor, const Vocabulary& vocabulary, Map* map, LocalMapper* mapper,
+          const TrackerOptions& options = {});
 
   // Tracks one frame (frames must come in order). Returns true when the frame
   // got a pose. `new_keyframe` (optional) tells whether it made a keyframe.

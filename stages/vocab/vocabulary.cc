@@ -317,8 +317,8 @@ double Vocabulary::Score(const BowVector& a, const BowVector& b) const {
     case ScoringType::kL1:
       // |v - w|_1 = 2 + sum over common words (|vi - wi| - |vi| - |wi|) (Nister 2006).
       return -SumOverCommonWords(v, w, [](double vi, double wi) {
-               return std::fabs(vi - wi) - std::fabs(vi) - std::fabs(wi);
-             }) / 2.0;
+        return std::fabs(vi - wi) - std::fabs(vi) - std::fabs(wi);
+      }) / 2.0;
     case ScoringType::kL2: {
       const double score = SumOverCommonWords(v, w, product);
       return score >= 1 ? 1.0 : 1.0 - std::sqrt(1.0 - score);
