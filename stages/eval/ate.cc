@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 #include "common/dataset.h"
 #include "common/errors.h"
@@ -23,11 +24,18 @@ bool AteOptions::Check(std::string* why) const {
     *why = "max_difference = " + Format("%g", max_difference) + " s; must be > 0";
     return false;
   }
+  if (correct_scale && scale != 1.0) {
+    *why = "scale = " + Format("%g", scale) + " with correct_scale, which estimates it; must be 1";
+    return false;
+  }
   return CheckOffsetAndScale(offset, scale, why);
 }
 
 nlohmann::ordered_json AteOptions::ToJson() const {
-  return {{"max_difference_s", max_difference}, {"offset_s", offset}, {"scale", scale}};
+  return {{"max_difference_s", max_difference},
+          {"offset_s", offset},
+          {"scale", scale},
+          {"correct_scale", correct_scale}};
 }
 
 AteResult ComputeAte(const Trajectory& gt_input, const Trajectory& est_input,
@@ -66,7 +74,20 @@ AteResult ComputeAte(const Trajectory& gt_input, const Trajectory& est_input,
     gt_xyz.col(k) = gt[i].T_world_cam.translation;
     est_xyz.col(k) = options.scale * est[j].T_world_cam.translation;
   }
-  const RigidAlignment alignment = AlignRigid(est_xyz, gt_xyz);
+  Alignment alignment = AlignRigid(est_xyz, gt_xyz);
+  if (options.correct_scale) {
+    try {
+      alignment = AlignSimilarity(est_xyz, gt_xyz);
+    } catch (const std::invalid_argument&) {
+      throw DataError(
+          "the paired estimated positions are all equal; the scale cannot be estimated");
+    }
+    // Scale the estimate once; the rest is the rigid alignment of the scaled points.
+    est_xyz *= alignment.scale;
+    result.scale = alignment.scale;
+    result.scale_estimated = true;
+    alignment.scale = 1.0;
+  }
   result.T_gt_est =
       Rigid3d(Eigen::Quaterniond(alignment.rotation).normalized(), alignment.translation);
 
@@ -92,7 +113,7 @@ AteResult ComputeAte(const Trajectory& gt_input, const Trajectory& est_input,
     aligned.timestamp = pose.timestamp;
     aligned.T_world_cam =
         Rigid3d((result.T_gt_est.rotation * pose.T_world_cam.rotation).normalized(),
-                alignment * (options.scale * pose.T_world_cam.translation));
+                alignment * (result.scale * pose.T_world_cam.translation));
     result.est_aligned.push_back(aligned);
   }
   return result;
@@ -110,6 +131,8 @@ nlohmann::ordered_json AteResultToJson(const AteResult& result) {
       {"ate_m", ErrorStatsToJson(result.error)},
       {"T_gt_est",
        {{"quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}, {"translation", {t.x(), t.y(), t.z()}}}},
+      {"scale", result.scale},
+      {"scale_estimated", result.scale_estimated},
   };
 }
 
@@ -122,6 +145,7 @@ std::string FormatAteReport(const AteResult& result) {
   for (const auto& [name, value] : rows) {
     out += std::string("absolute_translational_error.") + name + " " + Format("%f", value) + " m\n";
   }
+  if (result.scale_estimated) out += "estimated_scale " + Format("%f", result.scale) + "\n";
   return out;
 }
 

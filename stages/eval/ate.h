@@ -7,6 +7,9 @@
 // ones by the rigid transform of least squared error (AlignRigid: rotation and
 // translation, no scale), and the error of pair i is
 //   e_i = |T_gt_est * (scale * p_est_i) - p_gt_i|   (metres)
+// With `correct_scale` the scale is estimated too, by the similarity of least
+// squared error (AlignSimilarity, Umeyama 1991, as evo's --correct_scale): a
+// diagnostic for estimates whose scale is off, not TUM's figure.
 // Only positions enter ATE; orientations are carried along for the aligned
 // trajectory. Every function here is thread-safe (no shared state).
 #pragma once
@@ -36,6 +39,8 @@ struct AteOptions {
   // Factor applied to the estimated positions before alignment (for monocular
   // or otherwise scaled estimates). Must be > 0.
   double scale = 1.0;
+  // Estimate the scale as part of the alignment; `scale` must then stay 1.
+  bool correct_scale = false;
 
   // False, with the violated constraint in `why`, when an option is invalid.
   bool Check(std::string* why) const;
@@ -66,7 +71,10 @@ struct AteResult {
   size_t est_poses = 0;      // Distinct estimated stamps.
   size_t gt_duplicates = 0;  // Ground-truth lines dropped for a repeated stamp.
   size_t est_duplicates = 0;
-  double scale = 1.0;  // AteOptions::scale that produced this result.
+  // Factor applied to the estimated positions: AteOptions::scale, or the
+  // estimated one when scale_estimated.
+  double scale = 1.0;
+  bool scale_estimated = false;  // AteOptions::correct_scale.
 };
 
 // Computes the ATE of `est` against `gt`. Neither needs to be sorted; a stamp
@@ -76,7 +84,7 @@ struct AteResult {
 AteResult ComputeAte(const Trajectory& gt, const Trajectory& est, const AteOptions& options = {});
 
 // Machine-readable result: pair and pose counts, "ate_m" statistics (metres)
-// and the alignment T_gt_est (quaternion x y z w, translation).
+// the alignment T_gt_est (quaternion x y z w, translation) and the scale.
 nlohmann::ordered_json AteResultToJson(const AteResult& result);
 
 // evaluate_ate.py's --verbose report: "compared_pose_pairs N pairs" then

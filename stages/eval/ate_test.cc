@@ -170,6 +170,38 @@ TEST(ComputeAte, ScaleMultipliesTheEstimatedPositions) {
   EXPECT_LT((result.pairs[3].est_position - 2.0 * est[3].T_world_cam.translation).norm(), 1e-12);
 }
 
+TEST(ComputeAte, CorrectScaleEstimatesTheScaleAndReportsIt) {
+  const Trajectory gt = MakeGroundTruth(60);
+  Trajectory est = Transformed(gt, kWorldChange);
+  for (StampedPose& pose : est) pose.T_world_cam.translation *= 0.8;
+  AteOptions options;
+  options.correct_scale = true;
+  const AteResult result = ComputeAte(gt, est, options);
+  EXPECT_LT(result.error.rmse, 1e-9);
+  EXPECT_NEAR(result.scale, 1.25, 1e-12);
+  EXPECT_TRUE(result.scale_estimated);
+  EXPECT_LT((result.pairs[3].est_position - 1.25 * est[3].T_world_cam.translation).norm(), 1e-12);
+  EXPECT_LT((result.est_aligned[3].T_world_cam.translation - gt[3].T_world_cam.translation).norm(),
+            1e-9);
+  EXPECT_EQ(AteResultToJson(result)["scale"].get<double>(), result.scale);
+  EXPECT_NE(FormatAteReport(result).find("\nestimated_scale 1.250000\n"), std::string::npos);
+  // Without it the report stays TUM's, and the scale is the given one.
+  const AteResult rigid = ComputeAte(gt, est);
+  EXPECT_FALSE(rigid.scale_estimated);
+  EXPECT_EQ(FormatAteReport(rigid).find("estimated_scale"), std::string::npos);
+  EXPECT_GT(rigid.error.rmse, result.error.rmse + 0.01);
+}
+
+TEST(ComputeAte, CorrectScaleNeedsAMovingEstimate) {
+  const Trajectory gt = MakeGroundTruth(10);
+  Trajectory still = gt;
+  for (StampedPose& pose : still) pose.T_world_cam.translation = Eigen::Vector3d(1, 2, 3);
+  AteOptions options;
+  options.correct_scale = true;
+  EXPECT_THROW(ComputeAte(gt, still, options), DataError);
+  EXPECT_NO_THROW(ComputeAte(gt, still));  // Rigid alignment is defined.
+}
+
 TEST(ComputeAte, TooFewPairsAreDataErrors) {
   const Trajectory gt = MakeGroundTruth(10);
   Trajectory far = gt;
@@ -207,6 +239,12 @@ TEST(AteOptions, DefaultsPassAndEachConstraintFails) {
   o.scale = -1;
   EXPECT_FALSE(o.Check(&why));
   EXPECT_NE(why.find("scale"), std::string::npos);
+  o = AteOptions{};
+  o.correct_scale = true;
+  EXPECT_TRUE(o.Check(&why));
+  o.scale = 2;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("correct_scale"), std::string::npos);
   const Trajectory gt = MakeGroundTruth(10);
   EXPECT_THROW(ComputeAte(gt, gt, o), UsageError);
 }

@@ -197,11 +197,21 @@ TEST_F(EvalTool, UnwritablePlotIs73AndWritesNothing) {
   EXPECT_EQ(ReadFileToString(pairs), "keep me\n");
 }
 
+TEST_F(EvalTool, AteCorrectScalePrintsTheEstimatedScale) {
+  const auto r = RunTool("eval", "ate --correct-scale " + Inputs());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("estimated_scale 1.000000"), std::string::npos) << r.output;
+  const auto both = RunTool("eval", "ate --correct-scale --scale 2 " + Inputs());
+  EXPECT_EQ(both.exit_code, 64) << both.output;
+  EXPECT_NE(both.output.find("correct_scale"), std::string::npos) << both.output;
+}
+
 TEST_F(EvalTool, HelpListsFlagsWithDefaults) {
   const auto r = RunTool("eval", "ate --help");
   EXPECT_EQ(r.exit_code, 0);
-  for (const char* text : {"--max-diff", "0.02", "--offset", "--scale", "--plot", "--json",
-                           "--save-associations", "--save-aligned", "--plot-axes"}) {
+  for (const char* text :
+       {"--max-diff", "0.02", "--offset", "--scale", "--plot", "--json", "--save-associations",
+        "--save-aligned", "--plot-axes", "--correct-scale"}) {
     EXPECT_NE(r.output.find(text), std::string::npos) << text;
   }
   const auto rpe = RunTool("eval", "rpe --help");

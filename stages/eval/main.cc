@@ -56,6 +56,9 @@ void BindAte(CLI::App* command, rrslam::EvalAteOptions* options) {
       ->capture_default_str();
   command->add_option("--scale", options->ate.scale, "Factor applied to the estimated positions")
       ->capture_default_str();
+  command->add_flag("--correct-scale", options->ate.correct_scale,
+                    "Estimate the scale too (Umeyama Sim(3) alignment, as evo's --correct_scale); "
+                    "prints estimated_scale");
   command->add_flag("--json", options->json, "Print the result as JSON instead of text");
   command->add_option("--out", options->report_path,
                       "Write the result (text or JSON) to this file instead of stdout");
