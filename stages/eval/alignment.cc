@@ -8,12 +8,11 @@
 namespace rrslam {
 namespace {
 
-// Rotation of both alignments and the scale numerator trace(D S) of Umeyama's
-// eq. 42 (S the singular values, D the reflection fix).
-Alignment AlignCentred(const Eigen::Matrix3Xd& model, const Eigen::Matrix3Xd& data,
-                       const Eigen::Vector3d& model_mean, const Eigen::Vector3d& data_mean,
-                       double* trace_ds) {
+// Umeyama 1991, eq. 39-42; with_scale = false is Horn's rigid fit (scale 1).
+Alignment Align(const Eigen::Matrix3Xd& model, const Eigen::Matrix3Xd& data, bool with_scale) {
   assert(model.cols() == data.cols() && model.cols() >= 1);
+  const Eigen::Vector3d model_mean = model.rowwise().mean();
+  const Eigen::Vector3d data_mean = data.rowwise().mean();
   const Eigen::Matrix3d correlation =
       (data.colwise() - data_mean) * (model.colwise() - model_mean).transpose();
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(correlation,
@@ -24,33 +23,25 @@ Alignment AlignCentred(const Eigen::Matrix3Xd& model, const Eigen::Matrix3Xd& da
   if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0) reflection_fix(2) = -1;
   Alignment alignment;
   alignment.rotation = svd.matrixU() * reflection_fix.asDiagonal() * svd.matrixV().transpose();
-  *trace_ds = svd.singularValues().dot(reflection_fix);
+  if (with_scale) {
+    const double model_spread = (model.colwise() - model_mean).squaredNorm();
+    if (!(model_spread > 0)) {
+      throw std::invalid_argument("AlignSimilarity: the model points are all equal");
+    }
+    alignment.scale = svd.singularValues().dot(reflection_fix) / model_spread;
+  }
+  alignment.translation = data_mean - alignment.scale * (alignment.rotation * model_mean);
   return alignment;
 }
 
 }  // namespace
 
 Alignment AlignRigid(const Eigen::Matrix3Xd& model, const Eigen::Matrix3Xd& data) {
-  const Eigen::Vector3d model_mean = model.rowwise().mean();
-  const Eigen::Vector3d data_mean = data.rowwise().mean();
-  double trace_ds = 0;
-  Alignment alignment = AlignCentred(model, data, model_mean, data_mean, &trace_ds);
-  alignment.translation = data_mean - alignment.rotation * model_mean;
-  return alignment;
+  return Align(model, data, /*with_scale=*/false);
 }
 
 Alignment AlignSimilarity(const Eigen::Matrix3Xd& model, const Eigen::Matrix3Xd& data) {
-  const Eigen::Vector3d model_mean = model.rowwise().mean();
-  const Eigen::Vector3d data_mean = data.rowwise().mean();
-  const double model_spread = (model.colwise() - model_mean).squaredNorm();
-  if (!(model_spread > 0)) {
-    throw std::invalid_argument("AlignSimilarity: the model points are all equal");
-  }
-  double trace_ds = 0;
-  Alignment alignment = AlignCentred(model, data, model_mean, data_mean, &trace_ds);
-  alignment.scale = trace_ds / model_spread;
-  alignment.translation = data_mean - alignment.scale * (alignment.rotation * model_mean);
-  return alignment;
+  return Align(model, data, /*with_scale=*/true);
 }
 
 }  // namespace rrslam

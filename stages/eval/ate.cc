@@ -74,8 +74,10 @@ AteResult ComputeAte(const Trajectory& gt_input, const Trajectory& est_input,
     gt_xyz.col(k) = gt[i].T_world_cam.translation;
     est_xyz.col(k) = options.scale * est[j].T_world_cam.translation;
   }
-  Alignment alignment = AlignRigid(est_xyz, gt_xyz);
-  if (options.correct_scale) {
+  Alignment alignment;
+  if (!options.correct_scale) {
+    alignment = AlignRigid(est_xyz, gt_xyz);
+  } else {
     try {
       alignment = AlignSimilarity(est_xyz, gt_xyz);
     } catch (const std::invalid_argument&) {
