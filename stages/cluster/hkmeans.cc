@@ -5,17 +5,15 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
-#include <condition_variable>
 #include <cstring>
 #include <deque>
-#include <exception>
 #include <functional>
 #include <limits>
-#include <mutex>
 #include <numeric>
 #include <thread>
 
 #include "common/errors.h"
+#include "common/worker_pool.h"
 
 namespace rrslam {
 namespace {
@@ -67,88 +65,6 @@ uint64_t RootSeed(uint64_t seed) {
   uint64_t state = seed;
   return SplitMix64(&state);
 }
-
-// ---------------------------------------------------------------------------
-// A fixed set of worker threads running index loops; the calling thread takes
-// part. Indices are handed out dynamically, so loop bodies must not depend on
-// which thread runs them (they do not: see the integer reductions below).
-
-class WorkerPool {
- public:
-  explicit WorkerPool(int threads) {
-    for (int i = 1; i < threads; ++i) workers_.emplace_back([this] { WorkerLoop(); });
-  }
-  ~WorkerPool() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    for (auto& t : workers_) t.join();
-  }
-  int size() const { return static_cast<int>(workers_.size()) + 1; }
-
-  void ParallelFor(size_t n, const std::function<void(size_t)>& fn) {
-    if (workers_.empty() || n <= 1) {
-      for (size_t i = 0; i < n; ++i) fn(i);
-      return;
-    }
-    {
-      std::lock_guard lock(mutex_);
-      job_ = &fn;
-      job_size_ = n;
-      next_ = 0;
-      error_ = nullptr;
-      busy_workers_ = workers_.size();
-      ++generation_;
-    }
-    wake_.notify_all();
-    RunJob(fn, n);
-    std::unique_lock lock(mutex_);
-    done_.wait(lock, [&] { return busy_workers_ == 0; });
-    job_ = nullptr;
-    if (error_) std::rethrow_exception(error_);
-  }
-
- private:
-  void RunJob(const std::function<void(size_t)>& fn, size_t n) {
-    for (size_t i = next_.fetch_add(1); i < n; i = next_.fetch_add(1)) {
-      try {
-        fn(i);
-      } catch (...) {
-        std::lock_guard lock(mutex_);
-        if (!error_) error_ = std::current_exception();
-      }
-    }
-  }
-
-  void WorkerLoop() {
-    uint64_t seen = 0;
-    std::unique_lock lock(mutex_);
-    while (true) {
-      wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
-      if (stop_) return;
-      seen = generation_;
-      const auto* job = job_;
-      const size_t n = job_size_;
-      lock.unlock();
-      RunJob(*job, n);
-      lock.lock();
-      if (--busy_workers_ == 0) done_.notify_all();
-    }
-  }
-
-  std::vector<std::thread> workers_;
-  std::mutex mutex_;
-  std::condition_variable wake_, done_;
-  const std::function<void(size_t)>* job_ = nullptr;
-  size_t job_size_ = 0;
-  std::atomic<size_t> next_{0};
-  size_t busy_workers_ = 0;
-  uint64_t generation_ = 0;
-  bool stop_ = false;
-  std::exception_ptr error_;
-};
 
 // ---------------------------------------------------------------------------
 // Nearest centre by Hamming distance (common/orb_descriptor.h).

@@ -3,20 +3,17 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <condition_variable>
-#include <exception>
 #include <functional>
-#include <mutex>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 #if defined(__SSE4_1__)
 #include <smmintrin.h>
 #endif
 
+#include "common/worker_pool.h"
 #include "stages/extract/fast_detector.h"
 #include "stages/extract/orb_pattern.h"
 
@@ -262,85 +259,6 @@ void ComputeDescriptor(const cv::Mat& smoothed, int x, int y, float angle_deg,
   }
 }
 
-// Runs tasks [0, n) on the calling thread and `helpers` persistent threads,
-// handing out task indices in increasing order.
-class TaskPool {
- public:
-  explicit TaskPool(int helpers) {
-    for (int i = 0; i < helpers; ++i) threads_.emplace_back([this] { HelperLoop(); });
-  }
-  ~TaskPool() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    for (std::thread& t : threads_) t.join();
-  }
-  TaskPool(const TaskPool&) = delete;
-  TaskPool& operator=(const TaskPool&) = delete;
-
-  // Returns when every task has run; rethrows the first exception of a task.
-  void Run(int n, const std::function<void(int)>& task) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      task_ = &task;
-      num_tasks_ = n;
-      next_.store(0);
-      busy_helpers_ = static_cast<int>(threads_.size());
-      error_ = nullptr;
-      ++generation_;
-    }
-    wake_.notify_all();
-    Work();
-    std::unique_lock<std::mutex> lock(mutex_);
-    done_.wait(lock, [this] { return busy_helpers_ == 0; });
-    task_ = nullptr;
-    if (error_) std::rethrow_exception(error_);
-  }
-
- private:
-  void Work() {
-    for (int i = next_.fetch_add(1); i < num_tasks_; i = next_.fetch_add(1)) {
-      try {
-        (*task_)(i);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (!error_) error_ = std::current_exception();
-      }
-    }
-  }
-
-  void HelperLoop() {
-    uint64_t seen = 0;
-    while (true) {
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
-        if (stop_) return;
-        seen = generation_;
-      }
-      Work();
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (--busy_helpers_ == 0) done_.notify_one();
-      }
-    }
-  }
-
-  std::vector<std::thread> threads_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::condition_variable done_;
-  const std::function<void(int)>* task_ = nullptr;
-  int num_tasks_ = 0;
-  std::atomic<int> next_{0};
-  int busy_helpers_ = 0;
-  uint64_t generation_ = 0;
-  bool stop_ = false;
-  std::exception_ptr error_;
-};
-
 }  // namespace
 
 // Work buffers of one pyramid level, reused between images.
@@ -359,7 +277,7 @@ struct LevelWork {
 struct OrbExtractor::Impl {
   std::vector<LevelWork> levels;
   std::vector<int> disc_half_width = DiscHalfWidths(kPatchRadius);
-  std::unique_ptr<TaskPool> pool;
+  std::unique_ptr<WorkerPool> pool;
 };
 
 namespace {
@@ -451,7 +369,7 @@ OrbExtractor::OrbExtractor(const OrbSettings& settings, int num_threads)
   pyramid_.resize(n_levels);
   blurred_.resize(n_levels);
   impl_->levels.resize(n_levels);
-  if (num_threads > 1) impl_->pool = std::make_unique<TaskPool>(num_threads - 1);
+  if (num_threads > 1) impl_->pool = std::make_unique<WorkerPool>(num_threads);
 }
 
 OrbExtractor::~OrbExtractor() = default;
@@ -536,10 +454,10 @@ void OrbExtractor::Extract(const cv::Mat& gray, std::vector<Keypoint>* keypoints
     // which balances two threads to within a few percent (level areas fall by
     // 1/s^2 each).
     // A failed build releases the waiting tasks with kBuildFailed (its
-    // exception is rethrown by Run).
+    // exception is rethrown by ParallelFor).
     constexpr int kBuildFailed = 1 << 20;
     std::atomic<int> levels_built{1};
-    const std::function<void(int)> task = [&](int t) {
+    const std::function<void(size_t)> task = [&](size_t t) {
       if (t == 0) {
         try {
           for (int l = 1; l < n_levels; ++l) {
@@ -554,7 +472,7 @@ void OrbExtractor::Extract(const cv::Mat& gray, std::vector<Keypoint>* keypoints
         }
         return;
       }
-      const int l = t - 1;
+      const int l = static_cast<int>(t) - 1;
       int built = levels_built.load(std::memory_order_acquire);
       while (built <= l) {
         levels_built.wait(built, std::memory_order_acquire);
@@ -562,7 +480,7 @@ void OrbExtractor::Extract(const cv::Mat& gray, std::vector<Keypoint>* keypoints
       }
       if (built != kBuildFailed) process_level(l);
     };
-    impl_->pool->Run(n_levels + 1, task);
+    impl_->pool->ParallelFor(static_cast<size_t>(n_levels) + 1, task);
   } else {
     // Each level right after it is built, while it is in cache.
     for (int l = 0; l < n_levels; ++l) {
