@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstring>
 
 #include "common/errors.h"
 #include "stages/vocab/vocab_test_util.h"
@@ -11,11 +10,7 @@
 namespace rrslam {
 namespace {
 
-OrbDescriptor Filled(uint8_t value) {
-  OrbDescriptor d;
-  std::memset(d.bytes, value, 32);
-  return d;
-}
+using testing::Filled;
 
 // Root with four leaf words A, B, C, D (k = 4, L = 1).
 VocabTree FourWordTree() {

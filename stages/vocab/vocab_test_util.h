@@ -2,6 +2,7 @@
 // and small hand-built ones. Test code only.
 #pragma once
 
+#include <cstring>
 #include <functional>
 #include <random>
 #include <string>
@@ -10,6 +11,13 @@
 #include "stages/vocab/vocabulary_format.h"
 
 namespace rrslam::testing {
+
+// A descriptor whose 32 bytes all equal `value`.
+inline OrbDescriptor Filled(uint8_t value) {
+  OrbDescriptor d;
+  std::memset(d.bytes, value, sizeof(d.bytes));
+  return d;
+}
 
 inline OrbDescriptor RandomOrbDescriptor(std::mt19937_64& rng) {
   OrbDescriptor d;

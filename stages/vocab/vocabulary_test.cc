@@ -4,7 +4,6 @@
 
 #include <cfloat>
 #include <cmath>
-#include <cstring>
 #include <map>
 
 #include "common/atomic_file.h"
@@ -16,11 +15,7 @@
 namespace rrslam {
 namespace {
 
-OrbDescriptor Filled(uint8_t value) {
-  OrbDescriptor d;
-  std::memset(d.bytes, value, 32);
-  return d;
-}
+using testing::Filled;
 
 OrbDescriptor WithByte(OrbDescriptor d, int index, uint8_t value) {
   d.bytes[index] = value;
