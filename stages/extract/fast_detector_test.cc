@@ -111,11 +111,8 @@ TEST(FastDetector, ScoreIsThresholdIndependent) {
 TEST(FastDetector, FindsTheCornersOfASquare) {
   // A perfectly uniform square gives plateaus of equal scores that strict
   // suppression removes entirely (as cv::FAST does); mild noise breaks ties.
-  cv::Mat image(100, 100, CV_8UC1, cv::Scalar(40));
-  cv::rectangle(image, cv::Rect(30, 30, 40, 40), cv::Scalar(200), cv::FILLED);
-  cv::Mat noise(100, 100, CV_8UC1);
-  cv::RNG(5).fill(noise, cv::RNG::UNIFORM, 0, 12);
-  image += noise;
+  const cv::Mat image =
+      testing::MakeNoisySquare(cv::Size(100, 100), cv::Rect(30, 30, 40, 40), 40, 200, 5, 12);
   std::vector<FastCorner> corners;
   std::vector<uint8_t> scratch;
   DetectFastCorners(image, cv::Rect(10, 10, 80, 80), 20, &corners, &scratch);

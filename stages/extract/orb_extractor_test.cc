@@ -193,11 +193,8 @@ TEST(OrbExtractor, OrientationPointsToTheIntensityCentroid) {
   // inside the square, so the angle (atan2(m01, m10), y down) points inward:
   // 45 deg at the top-left vertex, 135 at top-right, 225 at bottom-right and
   // 315 at bottom-left.
-  cv::Mat image(480, 640, CV_8UC1, cv::Scalar(50));
-  cv::rectangle(image, cv::Rect(200, 140, 240, 200), cv::Scalar(190), cv::FILLED);
-  cv::Mat noise(480, 640, CV_8UC1);
-  cv::RNG(3).fill(noise, cv::RNG::UNIFORM, 0, 6);
-  image += noise;
+  const cv::Mat image =
+      testing::MakeNoisySquare(cv::Size(640, 480), cv::Rect(200, 140, 240, 200), 50, 190, 3, 6);
   OrbExtractor extractor{OrbSettings{}};
   const Extraction e = Extract(&extractor, image);
   struct Vertex {

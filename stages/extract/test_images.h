@@ -98,4 +98,17 @@ inline cv::Mat MakeTexturedImage(int width, int height, uint64_t seed) {
   return image;
 }
 
+// A filled `square` of grey `square_grey` on a `background_grey` image of
+// `size`, plus uniform noise in [0, noise_max) from cv::RNG(seed). The noise
+// breaks the ties of equal corner scores that a perfectly flat square has.
+inline cv::Mat MakeNoisySquare(cv::Size size, cv::Rect square, int background_grey, int square_grey,
+                               uint64_t seed, int noise_max) {
+  cv::Mat image(size, CV_8UC1, cv::Scalar(background_grey));
+  cv::rectangle(image, square, cv::Scalar(square_grey), cv::FILLED);
+  cv::Mat noise(size, CV_8UC1);
+  cv::RNG(seed).fill(noise, cv::RNG::UNIFORM, 0, noise_max);
+  image += noise;
+  return image;
+}
+
 }  // namespace rrslam::testing
