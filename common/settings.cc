@@ -62,6 +62,9 @@ bool Settings::Check(std::string* why) const {
   if (!positive(fps)) return fail("Camera.fps = " + Fmt("%g", fps) + "; must be > 0");
   if (!positive(bf)) return fail("Camera.bf = " + Fmt("%g", bf) + "; must be > 0");
   if (!positive(th_depth)) return fail("ThDepth = " + Fmt("%g", th_depth) + "; must be > 0");
+  if (!std::isfinite(depth_disparity_sigma) || depth_disparity_sigma < 0) {
+    return fail("DepthDisparitySigma = " + Fmt("%g", depth_disparity_sigma) + "; must be >= 0");
+  }
   if (!positive(depth_map_factor)) {
     return fail("DepthMapFactor = " + Fmt("%g", depth_map_factor) + "; must be > 0");
   }
@@ -130,6 +133,7 @@ Settings ParseSettings(const std::string& text, const std::string& name) {
     ReadNumber(fs, "DepthMapFactor", name, &s.depth_map_factor);
     // ORB-SLAM2 treats a zero factor as 1 (depth already in metres).
     if (s.depth_map_factor == 0) s.depth_map_factor = 1.0;
+    ReadNumber(fs, "DepthDisparitySigma", name, &s.depth_disparity_sigma);
     ReadInt(fs, "ORBextractor.nFeatures", name, &s.orb.n_features);
     ReadNumber(fs, "ORBextractor.scaleFactor", name, &s.orb.scale_factor);
     ReadInt(fs, "ORBextractor.nLevels", name, &s.orb.n_levels);
@@ -163,8 +167,11 @@ std::string FormatSettings(const Settings& s) {
       << "Camera.bf: " << num(s.bf) << "\n"
       << "Camera.RGB: " << (s.rgb_order ? 1 : 0) << "\n"
       << "ThDepth: " << num(s.th_depth) << "\n"
-      << "DepthMapFactor: " << num(s.depth_map_factor) << "\n"
-      << "ORBextractor.nFeatures: " << s.orb.n_features << "\n"
+      << "DepthMapFactor: " << num(s.depth_map_factor) << "\n";
+  if (s.depth_disparity_sigma > 0) {
+    out << "DepthDisparitySigma: " << num(s.depth_disparity_sigma) << "\n";
+  }
+  out << "ORBextractor.nFeatures: " << s.orb.n_features << "\n"
       << "ORBextractor.scaleFactor: " << num(s.orb.scale_factor) << "\n"
       << "ORBextractor.nLevels: " << s.orb.n_levels << "\n"
       << "ORBextractor.iniThFAST: " << s.orb.ini_th_fast << "\n"

@@ -9,6 +9,9 @@
 //   Camera.RGB                                     1 RGB, 0 BGR order, default 1
 //   ThDepth                                        close/far threshold in baselines, default 40
 //   DepthMapFactor                                 depth PNG units per metre, default 5000
+//   DepthDisparitySigma                            depth noise as disparity, pixels, default 0
+//                                                  (rrslam's key; see
+//                                                  Settings::depth_disparity_sigma)
 //   ORBextractor.nFeatures/scaleFactor/nLevels/iniThFAST/minThFAST
 // Keys other than these are ignored, as ORB-SLAM2 does.
 #pragma once
@@ -40,6 +43,13 @@ struct Settings {
                                      // images through OpenCV, so this matters only for raw buffers.
   double th_depth = 40.0;            // Close/far threshold in baselines (ORB-SLAM2's ThDepth).
   double depth_map_factor = 5000.0;  // Depth PNG units per metre.
+  // Standard deviation, in pixels, of the virtual disparity bf / z that a
+  // depth reading z gives (for a sensor whose depth noise is k z^2 metres it
+  // is about bf * k, plus the error of sampling the depth at a keypoint).
+  // 0 (not given): depth is weighted as ORB-SLAM2 does, through u_R with the
+  // keypoint's own sigma. Given: tracking and mapping weight the disparity
+  // with this sigma, independently of the keypoint's pyramid level.
+  double depth_disparity_sigma = 0.0;
   OrbSettings orb;
 
   std::filesystem::path source;  // File these settings came from (empty if built in code).

@@ -45,9 +45,11 @@ TEST(Settings, FormatReadRoundTrip) {
   s.width = 320;
   s.height = 240;
   s.orb.n_features = 500;
+  s.depth_disparity_sigma = 0.125;
   WriteSettings(dir / "s.yaml", s);
   const Settings r = ReadSettings(dir / "s.yaml");
   EXPECT_EQ(r.fx, s.fx);
+  EXPECT_EQ(r.depth_disparity_sigma, 0.125);
   EXPECT_EQ(r.cy, s.cy);
   EXPECT_EQ(r.distortion.k1, 0.125);
   EXPECT_EQ(r.width, 320);
@@ -64,6 +66,8 @@ TEST(Settings, DefaultsApplyToOptionalKeys) {
   EXPECT_TRUE(s.distortion.IsZero());
   EXPECT_EQ(s.width, 0);
   EXPECT_EQ(s.depth_map_factor, 5000.0);
+  EXPECT_EQ(s.depth_disparity_sigma, 0.0);
+  EXPECT_EQ(FormatSettings(s).find("DepthDisparitySigma"), std::string::npos);
   EXPECT_EQ(s.orb.n_levels, 8);
 }
 
@@ -111,6 +115,7 @@ TEST(Settings, CheckNamesEachConstraint) {
       {[](Settings& s) { s.bf = 0; }, "Camera.bf"},
       {[](Settings& s) { s.th_depth = 0; }, "ThDepth"},
       {[](Settings& s) { s.depth_map_factor = -5; }, "DepthMapFactor"},
+      {[](Settings& s) { s.depth_disparity_sigma = -0.1; }, "DepthDisparitySigma"},
       {[](Settings& s) { s.orb.n_features = 0; }, "nFeatures"},
       {[](Settings& s) { s.orb.scale_factor = 1.0; }, "scaleFactor"},
       {[](Settings& s) { s.orb.n_levels = 17; }, "nLevels"},

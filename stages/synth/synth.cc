@@ -28,6 +28,9 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kDepthMapFactor = 5000.0;
+// Disparity error (pixels) of a depth read at a keypoint's nearest pixel,
+// beyond the sensor's noise; measured on noise-free sequences.
+constexpr double kDepthSamplingSigma = 0.1;
 
 std::string Num(double v) {
   char buffer[64];
@@ -114,6 +117,11 @@ Settings SynthOptions::MakeSettings() const {
   settings.rgb_order = true;
   settings.th_depth = 40.0;
   settings.depth_map_factor = kDepthMapFactor;
+  // Depth noise k z^2 metres is bf * k pixels of disparity bf / z at any
+  // depth. Reading the depth at a keypoint's nearest pixel adds an error of
+  // its own (slanted surfaces, depth edges); kDepthSamplingSigma covers it
+  // (docs/track.md, "Depth weighting").
+  settings.depth_disparity_sigma = std::hypot(settings.bf * depth_noise, kDepthSamplingSigma);
   return settings;
 }
 

@@ -121,6 +121,12 @@ TEST(SynthOptions, SettingsMatchTheRendering) {
   EXPECT_DOUBLE_EQ(s.th_depth, 40.0);
   EXPECT_DOUBLE_EQ(s.depth_map_factor, 5000.0);
   EXPECT_DOUBLE_EQ(s.fps, 30.0);
+  // Disparity noise: bf * k of the Kinect model (0.057 px) with the 0.1 px
+  // of reading depth at a keypoint.
+  EXPECT_NEAR(s.depth_disparity_sigma, std::hypot(40.0 * 1.425e-3, 0.1), 1e-12);
+  o.depth_noise = 0;
+  EXPECT_DOUBLE_EQ(o.MakeSettings().depth_disparity_sigma, 0.1);
+  o.depth_noise = 1.425e-3;
   EXPECT_TRUE(s.distortion.IsZero());
   EXPECT_EQ(s.orb.n_features, 1000);
   EXPECT_EQ(s.orb.n_levels, 8);

@@ -184,10 +184,9 @@ size_t LocalMapper::TriangulateNewPoints(KeyFrame* keyframe, bool check_queue) {
         const double v = sensor_.fy * pc.y() * inv_z + sensor_.cy;
         const double ex = u - kp.undistorted.x();
         const double ey = v - kp.undistorted.y();
-        const double sigma2 = pyramid.sigma2[kp.octave];
-        if (!f.HasDepth(i)) return ex * ex + ey * ey <= kChi2TwoDof * sigma2;
+        if (!f.HasDepth(i)) return ex * ex + ey * ey <= kChi2TwoDof * pyramid.sigma2[kp.octave];
         const double er = u - sensor_.bf * inv_z - f.u_right[i];
-        return ex * ex + ey * ey + er * er <= 7.8 * sigma2;
+        return sensor_.StereoChi2(ex, ey, er, kp.octave) <= 7.8;
       };
       if (!reprojects(*keyframe, f1, i1) || !reprojects(*kf2, f2, i2)) continue;
 

@@ -384,7 +384,7 @@ int Matcher::Fuse(KeyFrame* keyframe, const std::vector<MapPoint*>& points, Map*
       const double ey = v - kp.undistorted.y();
       if (f.HasDepth(idx)) {
         const double er = u_right - f.u_right[idx];
-        if ((ex * ex + ey * ey + er * er) * pyramid.inv_sigma2[kp.octave] > 7.8) continue;
+        if (sensor_.StereoChi2(ex, ey, er, kp.octave) > 7.8) continue;
       } else {
         if ((ex * ex + ey * ey) * pyramid.inv_sigma2[kp.octave] > 5.99) continue;
       }

@@ -12,7 +12,8 @@ namespace rrslam {
 namespace {
 
 ProjectionParameters Intrinsics(const SensorModel& sensor) {
-  return {sensor.fx, sensor.fy, sensor.cx, sensor.cy, sensor.bf};
+  return {sensor.fx, sensor.fy, sensor.cx,
+          sensor.cy, sensor.bf, sensor.disparity_sigma > 0 ? 1.0 / sensor.disparity_sigma : 0.0};
 }
 
 ceres::Problem::Options ProblemOptions() {

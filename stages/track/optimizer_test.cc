@@ -3,6 +3,8 @@
 #include <ceres/gradient_checker.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 
 #include "stages/track/reprojection_error.h"
@@ -44,6 +46,30 @@ TEST(ReprojectionErrorTest, AnalyticJacobiansMatchNumericDifferentiation) {
   PoseOnlyReprojectionError<3> fixed_point(k, Eigen::Vector3d(330, 250, 320), 1.0, point);
   ceres::GradientChecker pose_checker(&fixed_point, &pose_only, numeric);
   EXPECT_TRUE(pose_checker.Probe(parameters, 1e-6, &results)) << results.error_log;
+
+  // The disparity row of a sensor with a depth noise model. Its derivative
+  // along a rotation about the optical axis is zero, where Ceres' relative
+  // test fails on differentiation noise; compare with an absolute floor.
+  ProjectionParameters kd = k;
+  kd.inv_sigma_disparity = 1 / 0.2;
+  auto expect_close = [&](const ceres::GradientChecker::ProbeResults& r) {
+    for (size_t b = 0; b < r.local_jacobians.size(); ++b) {
+      const ceres::Matrix& analytic = r.local_jacobians[b];
+      const ceres::Matrix& numeric_jacobian = r.local_numeric_jacobians[b];
+      for (Eigen::Index i = 0; i < analytic.size(); ++i) {
+        const double a = analytic.data()[i], n = numeric_jacobian.data()[i];
+        EXPECT_NEAR(a, n, 1e-6 * std::max({1.0, std::abs(a), std::abs(n)})) << b << " " << i;
+      }
+    }
+  };
+  ReprojectionError<3> disparity(kd, Eigen::Vector3d(330, 250, 320), 1 / 1.2);
+  ceres::GradientChecker disparity_checker(&disparity, &manifolds, numeric);
+  disparity_checker.Probe(parameters, 1e-6, &results);
+  expect_close(results);
+  PoseOnlyReprojectionError<3> disparity_pose(kd, Eigen::Vector3d(330, 250, 320), 1.0, point);
+  ceres::GradientChecker disparity_pose_checker(&disparity_pose, &pose_only, numeric);
+  disparity_pose_checker.Probe(parameters, 1e-6, &results);
+  expect_close(results);
 }
 
 TEST(ReprojectionErrorTest, ResidualIsWhitenedProjectionError) {
@@ -60,11 +86,50 @@ TEST(ReprojectionErrorTest, ResidualIsWhitenedProjectionError) {
   const Eigen::Vector3d behind(0, 0, -1);
   const double* behind_parameters[] = {identity.data(), behind.data()};
   EXPECT_FALSE(error.Evaluate(behind_parameters, r, nullptr));
+
+  // With a disparity sigma the third row is the disparity error: observed
+  // 371 - 352 = 19 px against bf / z = 20 px, over sigma 0.25 px.
+  ProjectionParameters kd = k;
+  kd.inv_sigma_disparity = 4;
+  ReprojectionError<3> disparity(kd, Eigen::Vector3d(371, 138, 352), 0.5);
+  ASSERT_TRUE(disparity.Evaluate(parameters, r, nullptr));
+  EXPECT_NEAR(r[0], 0.5, 1e-12);
+  EXPECT_NEAR(r[1], -1.0, 1e-12);
+  EXPECT_NEAR(r[2], -4.0, 1e-12);
 }
 
-TEST(PoseOptimizationTest, RecoversPoseWithThirtyPercentOutliers) {
+// The chi-square statistic the matchers gate on is the squared norm of the
+// residual the optimizers minimize, with and without a depth noise model.
+TEST(ReprojectionErrorTest, SquaredNormIsTheSensorsStereoChiSquare) {
+  for (double disparity_sigma : {0.0, 0.25}) {
+    Settings settings = testing::TestSettings();
+    settings.depth_disparity_sigma = disparity_sigma;
+    const SensorModel sensor(settings, 640, 480);
+    const ProjectionParameters k{sensor.fx, sensor.fy,
+                                 sensor.cx, sensor.cy,
+                                 sensor.bf, disparity_sigma > 0 ? 1 / disparity_sigma : 0};
+    const int octave = 3;
+    const double inv_sigma = std::sqrt(sensor.pyramid.inv_sigma2[octave]);
+    const Eigen::Vector3d point(0.2, -0.4, 2.0);  // Projects to (370, 140), u_R = 350.
+    const Eigen::Vector3d observed(371.5, 138, 352.25);
+    const std::array<double, 7> identity = ToPoseBlock(Rigid3d::Identity());
+    PoseOnlyReprojectionError<3> error(k, observed, inv_sigma, point);
+    const double* parameters[] = {identity.data()};
+    double r[3];
+    ASSERT_TRUE(error.Evaluate(parameters, r, nullptr));
+    const double chi2 = sensor.StereoChi2(370 - 371.5, 140 - 138, 350 - 352.25, octave);
+    EXPECT_NEAR(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], chi2, 1e-9) << disparity_sigma;
+  }
+}
+
+// Parameter: the sensor's disparity sigma (0 = ORB-SLAM2's depth weighting).
+class PoseOptimizationWithOutliersTest : public ::testing::TestWithParam<double> {};
+
+TEST_P(PoseOptimizationWithOutliersTest, RecoversPoseWithThirtyPercentOutliers) {
   std::mt19937 rng(21);
-  const SensorModel sensor = TestSensor();
+  Settings settings = testing::TestSettings();
+  settings.depth_disparity_sigma = GetParam();
+  const SensorModel sensor(settings, 640, 480);
   const std::vector<testing::ScenePoint> scene = RandomScene(500, rng, 1.5, 4.0);
   const Rigid3d T_true = SmallMotion(0.1, 0.3);
   ViewOptions options;
@@ -111,6 +176,9 @@ TEST(PoseOptimizationTest, RecoversPoseWithThirtyPercentOutliers) {
   EXPECT_LE(flagged_right, 0.05 * (frame.size() - num_wrong));
   EXPECT_EQ(inliers, static_cast<int>(frame.size()) - flagged_wrong - flagged_right);
 }
+
+INSTANTIATE_TEST_SUITE_P(DepthWeighting, PoseOptimizationWithOutliersTest,
+                         ::testing::Values(0.0, 0.1));
 
 TEST(PoseOptimizationTest, NeedsThreeMatches) {
   std::mt19937 rng(2);

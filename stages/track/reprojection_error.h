@@ -9,8 +9,14 @@
 // Residuals are whitened by the keypoint's pyramid level:
 //   r = (observed - projected) / sigma,  sigma = scale_factor^octave,
 // so that |r|^2 is the chi-square statistic ORB-SLAM2 thresholds (5.991 for
-// 2 dof, 7.815 for 3 dof). A "stereo" residual adds the virtual right
-// coordinate u_R = u - bf / z of a keypoint with depth.
+// 2 dof, 7.815 for 3 dof). A "stereo" residual adds a third row for the
+// depth of a keypoint with depth, observed as the virtual right coordinate
+// u_R = u - bf / z:
+//   - inv_sigma_disparity = 0 (ORB-SLAM2): (u_R - projected u_R) / sigma;
+//   - inv_sigma_disparity > 0: the disparity d = u - u_R = bf / z,
+//     (d - bf / projected z) * inv_sigma_disparity, so that depth is weighted
+//     by the sensor's depth noise instead of the keypoint's pixel noise.
+// Both give SensorModel::StereoChi2 as |r|^2.
 #pragma once
 
 #include <ceres/ceres.h>
@@ -24,6 +30,7 @@ namespace rrslam {
 // Pinhole intrinsics and the virtual baseline, copied into each residual.
 struct ProjectionParameters {
   double fx, fy, cx, cy, bf;
+  double inv_sigma_disparity = 0;  // 1 / SensorModel::disparity_sigma; 0 = ORB-SLAM2's u_R row.
 };
 
 using PoseManifoldType =
@@ -60,11 +67,13 @@ bool EvaluateReprojection(const ProjectionParameters& k, const double* observed,
   residuals[0] = (observed[0] - u) * inv_sigma;
   residuals[1] = (observed[1] - v) * inv_sigma;
   if constexpr (N == 3) {
-    residuals[2] = (observed[2] - (u - k.bf * inv_z)) * inv_sigma;
+    residuals[2] = k.inv_sigma_disparity > 0
+                       ? (observed[0] - observed[2] - k.bf * inv_z) * k.inv_sigma_disparity
+                       : (observed[2] - (u - k.bf * inv_z)) * inv_sigma;
   }
   if (jacobian_pose == nullptr && jacobian_point == nullptr) return true;
 
-  // d residual / d point_cam = -inv_sigma * d projection / d point_cam.
+  // d residual / d point_cam = -weight * d prediction / d point_cam.
   Eigen::Matrix<double, N, 3> J;
   const double inv_z2 = inv_z * inv_z;
   J(0, 0) = k.fx * inv_z;
@@ -73,12 +82,18 @@ bool EvaluateReprojection(const ProjectionParameters& k, const double* observed,
   J(1, 0) = 0;
   J(1, 1) = k.fy * inv_z;
   J(1, 2) = -k.fy * pc.y() * inv_z2;
+  J.template topRows<2>() *= -inv_sigma;
   if constexpr (N == 3) {
-    J(2, 0) = J(0, 0);
-    J(2, 1) = 0;
-    J(2, 2) = J(0, 2) + k.bf * inv_z2;
+    if (k.inv_sigma_disparity > 0) {  // Prediction bf / z.
+      J(2, 0) = 0;
+      J(2, 1) = 0;
+      J(2, 2) = k.bf * inv_z2 * k.inv_sigma_disparity;
+    } else {  // Prediction u - bf / z.
+      J(2, 0) = J(0, 0);
+      J(2, 1) = 0;
+      J(2, 2) = J(0, 2) - k.bf * inv_z2 * inv_sigma;
+    }
   }
-  J *= -inv_sigma;
 
   if (jacobian_pose != nullptr) {
     // point_cam = R(q) p + t with R(q) p = p + 2 w (v x p) + 2 v x (v x p)

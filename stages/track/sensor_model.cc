@@ -44,10 +44,18 @@ SensorModel::SensorModel(const Settings& settings, int image_width, int image_he
   bf = settings.bf;
   baseline = settings.Baseline();
   th_depth = settings.ThDepthMetres();
+  disparity_sigma = settings.depth_disparity_sigma;
   bounds = camera.UndistortedBounds();
   grid_inv_cell_width = kGridCols / (bounds.max_x - bounds.min_x);
   grid_inv_cell_height = kGridRows / (bounds.max_y - bounds.min_y);
   pyramid = ScalePyramid(settings.orb);
+}
+
+double SensorModel::StereoChi2(double eu, double ev, double eur, int octave) const {
+  const double inv_sigma2 = pyramid.inv_sigma2[octave];
+  if (disparity_sigma <= 0) return (eu * eu + ev * ev + eur * eur) * inv_sigma2;
+  const double ed = (eu - eur) / disparity_sigma;
+  return (eu * eu + ev * ev) * inv_sigma2 + ed * ed;
 }
 
 bool SensorModel::GridCell(double u, double v, int* col, int* row) const {

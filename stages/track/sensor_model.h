@@ -43,9 +43,12 @@ struct SensorModel {
   PinholeCamera camera;  // Intrinsics and distortion (keypoints are undistorted once).
   double fx = 1, fy = 1, cx = 0, cy = 0;
   double inv_fx = 1, inv_fy = 1;
-  double bf = 40.0;                 // Baseline (m) times fx (px): u_R = u - bf / depth.
-  double baseline = 0.0;            // bf / fx, metres.
-  double th_depth = 0.0;            // Close/far threshold in metres (bf * ThDepth / fx).
+  double bf = 40.0;       // Baseline (m) times fx (px): u_R = u - bf / depth.
+  double baseline = 0.0;  // bf / fx, metres.
+  double th_depth = 0.0;  // Close/far threshold in metres (bf * ThDepth / fx).
+  // Depth noise as a disparity sigma in pixels (Settings::depth_disparity_sigma);
+  // 0 = ORB-SLAM2's weighting of u_R by the keypoint's sigma.
+  double disparity_sigma = 0.0;
   ImageBounds bounds;               // Ideal-pixel bounds of the image.
   double grid_inv_cell_width = 0;   // Cells per pixel along u.
   double grid_inv_cell_height = 0;  // Cells per pixel along v.
@@ -60,6 +63,16 @@ struct SensorModel {
   Eigen::Vector3d Unproject(double u, double v, double depth) const {
     return {(u - cx) * depth * inv_fx, (v - cy) * depth * inv_fy, depth};
   }
+  // Chi-square statistic of a keypoint with depth on pyramid level `octave`
+  // against a prediction, from the prediction errors (pixels) of u, v and the
+  // virtual right coordinate u_R. With disparity_sigma = 0 (ORB-SLAM2):
+  //   (eu^2 + ev^2 + eur^2) / sigma2[octave];
+  // otherwise (u, v) are weighted by the octave and the disparity u - u_R by
+  // disparity_sigma:
+  //   (eu^2 + ev^2) / sigma2[octave] + (eu - eur)^2 / disparity_sigma^2.
+  // The Ceres residuals (reprojection_error.h) whiten the same way.
+  double StereoChi2(double eu, double ev, double eur, int octave) const;
+
   // Grid cell of an ideal pixel; false when it falls outside the grid.
   bool GridCell(double u, double v, int* col, int* row) const;
 
