@@ -11,11 +11,6 @@
 namespace rrslam {
 namespace {
 
-ProjectionParameters Intrinsics(const SensorModel& sensor) {
-  return {sensor.fx, sensor.fy, sensor.cx,
-          sensor.cy, sensor.bf, sensor.disparity_sigma > 0 ? 1.0 / sensor.disparity_sigma : 0.0};
-}
-
 ceres::Problem::Options ProblemOptions() {
   ceres::Problem::Options options;
   options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -56,7 +51,7 @@ Rigid3d FromPoseBlock(const std::array<double, 7>& b) {
 int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
                       const PoseOptimizationOptions& options) {
   const FrameFeatures& f = frame->features();
-  const ProjectionParameters k = Intrinsics(sensor);
+  const ProjectionParameters k = ProjectionParametersOf(sensor);
   struct Match {
     uint32_t index;
     bool with_depth;
@@ -202,7 +197,7 @@ void LocalBundleAdjuster::Collect(KeyFrame* keyframe, const Map& map) {
 
 void LocalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
   if (observations_.empty() || stats_.local_keyframes == 0) return;
-  const ProjectionParameters k = Intrinsics(sensor_);
+  const ProjectionParameters k = ProjectionParametersOf(sensor_);
   ceres::HuberLoss loss_mono(std::sqrt(kChi2TwoDof));
   ceres::HuberLoss loss_stereo(std::sqrt(kChi2ThreeDof));
 

@@ -105,9 +105,7 @@ TEST(ReprojectionErrorTest, SquaredNormIsTheSensorsStereoChiSquare) {
     Settings settings = testing::TestSettings();
     settings.depth_disparity_sigma = disparity_sigma;
     const SensorModel sensor(settings, 640, 480);
-    const ProjectionParameters k{sensor.fx, sensor.fy,
-                                 sensor.cx, sensor.cy,
-                                 sensor.bf, disparity_sigma > 0 ? 1 / disparity_sigma : 0};
+    const ProjectionParameters k = ProjectionParametersOf(sensor);
     const int octave = 3;
     const double inv_sigma = std::sqrt(sensor.pyramid.inv_sigma2[octave]);
     const Eigen::Vector3d point(0.2, -0.4, 2.0);  // Projects to (370, 140), u_R = 350.

@@ -25,6 +25,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "stages/track/sensor_model.h"
+
 namespace rrslam {
 
 // Pinhole intrinsics and the virtual baseline, copied into each residual.
@@ -32,6 +34,12 @@ struct ProjectionParameters {
   double fx, fy, cx, cy, bf;
   double inv_sigma_disparity = 0;  // 1 / SensorModel::disparity_sigma; 0 = ORB-SLAM2's u_R row.
 };
+
+// The residuals' view of a sensor.
+inline ProjectionParameters ProjectionParametersOf(const SensorModel& sensor) {
+  return {sensor.fx, sensor.fy, sensor.cx,
+          sensor.cy, sensor.bf, sensor.disparity_sigma > 0 ? 1.0 / sensor.disparity_sigma : 0.0};
+}
 
 using PoseManifoldType =
     ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
