@@ -11,13 +11,18 @@
 #    RMSE <= 1 cm (noise-free) and <= 2 cm (noise).
 # Result: bench/results/track-<UTC date>.txt (and .json).
 #
-# The inputs are file targets under BENCH_TRACK_DIR (default
-# build/bench-data/track), made once and reused (delete the folder to redo):
-#   kitchen/features.h5  ORB features of every frame (rrslam-extract)
-#   kitchen/tree.h5      k = 10, L = 6 tree on every 2nd frame (rrslam-cluster)
-#   kitchen/voc.rrv      the vocabulary (rrslam-vocab build)
+# The inputs live under BENCH_TRACK_DIR (default build/bench-data/track). The
+# vocabularies come from the vocab pipeline (pipelines/vocab.mk, the recipe of
+# `make vocab`), whose steps are file targets depending on their inputs and
+# executables; the synthetic sequences depend on rrslam-synth. So a rerun
+# redoes exactly what a changed tool or input made stale:
+#   pipeline/7scenes-kitchen/  features.h5, tree.h5, voc.rrv: the kitchen's own
+#                              vocabulary with the pipeline's defaults
+#                              (k = 10, L = 6, every frame), as
+#                              `make vocab DATASET=7scenes-kitchen` trains it
 #   synth/<path>-clean/, synth/<path>-noisy/   sequences (rrslam-synth, seed 1)
-#   synth/<path>-vocab/voc.rrv  vocabulary trained on <path>-clean
+#   pipeline/<path>-clean/voc.rrv  vocabulary trained on <path>-clean
+#                              (k = 10, L = 5, every 2nd frame)
 BENCH_TRACK_DIR ?= $(BUILD_DIR)/bench-data/track
 BENCH_TRACK_FRAMES ?= 600
 BENCH_TRACK_KITCHEN ?= $(SHARED_DATA)/7scenes-kitchen
@@ -26,47 +31,39 @@ BENCH_TRACK_PATHS := loop sweep rotation
 
 bench_track_tools := rrslam-synth rrslam-extract rrslam-cluster rrslam-vocab rrslam-track \
   rrslam-eval bench_track
+bench_track_pipeline := $(BENCH_TRACK_DIR)/pipeline
+bench_track_kitchen_name := $(notdir $(BENCH_TRACK_KITCHEN))
+bench_track_kitchen_vocab := $(bench_track_pipeline)/$(bench_track_kitchen_name)/voc.rrv
 
-$(BENCH_TRACK_DIR)/kitchen/features.h5:
-	@mkdir -p $(@D)
-	$(BIN)/rrslam-extract --quiet --sequence $(BENCH_TRACK_KITCHEN) \
-	  --settings $(BENCH_TRACK_SETTINGS) --out $@
-$(BENCH_TRACK_DIR)/kitchen/tree.h5: $(BENCH_TRACK_DIR)/kitchen/features.h5
-	$(BIN)/rrslam-cluster --quiet --features $< --stride 2 --k 10 --levels 6 --seed 0 --out $@
-$(BENCH_TRACK_DIR)/kitchen/voc.rrv: $(BENCH_TRACK_DIR)/kitchen/tree.h5 \
-                                    $(BENCH_TRACK_DIR)/kitchen/features.h5
-	$(BIN)/rrslam-vocab --quiet build --tree $< --features $(word 2,$^) --stride 2 --out $@
-
-# bench_track_synth(path): the two renderings and the vocabulary of one path.
+# bench_track_synth(path): the two renderings of one path.
 define bench_track_synth
-$(BENCH_TRACK_DIR)/synth/$(1)-clean/groundtruth.txt:
+$(BENCH_TRACK_DIR)/synth/$(1)-clean/groundtruth.txt: $(BIN)/rrslam-synth
 	@mkdir -p $$(dir $$(@D))
 	$(BIN)/rrslam-synth --quiet --out $$(@D) --trajectory $(1) --frames $(BENCH_TRACK_FRAMES) \
 	  --seed 1 --depth-noise 0
-$(BENCH_TRACK_DIR)/synth/$(1)-noisy/groundtruth.txt:
+$(BENCH_TRACK_DIR)/synth/$(1)-noisy/groundtruth.txt: $(BIN)/rrslam-synth
 	@mkdir -p $$(dir $$(@D))
 	$(BIN)/rrslam-synth --quiet --out $$(@D) --trajectory $(1) --frames $(BENCH_TRACK_FRAMES) \
 	  --seed 1
-$(BENCH_TRACK_DIR)/synth/$(1)-vocab/features.h5: $(BENCH_TRACK_DIR)/synth/$(1)-clean/groundtruth.txt
-	@mkdir -p $$(@D)
-	$(BIN)/rrslam-extract --quiet --sequence $$(<D) --settings $$(<D)/settings.yaml --out $$@
-$(BENCH_TRACK_DIR)/synth/$(1)-vocab/tree.h5: $(BENCH_TRACK_DIR)/synth/$(1)-vocab/features.h5
-	$(BIN)/rrslam-cluster --quiet --features $$< --stride 2 --k 10 --levels 5 --seed 0 --out $$@
-$(BENCH_TRACK_DIR)/synth/$(1)-vocab/voc.rrv: $(BENCH_TRACK_DIR)/synth/$(1)-vocab/tree.h5 \
-                                             $(BENCH_TRACK_DIR)/synth/$(1)-vocab/features.h5
-	$(BIN)/rrslam-vocab --quiet build --tree $$< --features $$(word 2,$$^) --stride 2 --out $$@
 endef
 $(foreach p,$(BENCH_TRACK_PATHS),$(eval $(call bench_track_synth,$(p))))
 
 bench_track_synth_inputs := $(foreach p,$(BENCH_TRACK_PATHS), \
   $(BENCH_TRACK_DIR)/synth/$(p)-clean/groundtruth.txt \
-  $(BENCH_TRACK_DIR)/synth/$(p)-noisy/groundtruth.txt \
-  $(BENCH_TRACK_DIR)/synth/$(p)-vocab/voc.rrv)
-bench_track_kitchen_inputs := $(if $(wildcard $(BENCH_TRACK_KITCHEN)/rgb.txt), \
-  $(BENCH_TRACK_DIR)/kitchen/voc.rrv)
+  $(BENCH_TRACK_DIR)/synth/$(p)-noisy/groundtruth.txt)
+bench_track_has_kitchen := $(wildcard $(BENCH_TRACK_KITCHEN)/rgb.txt)
 
 .PHONY: bench-track bench-track-data
-bench-track-data: $(bench_track_kitchen_inputs) $(bench_track_synth_inputs)
+bench-track-data: $(bench_track_synth_inputs)
+ifneq ($(bench_track_has_kitchen),)
+	$(MAKE) --no-print-directory $(bench_track_kitchen_vocab) SKIP_BUILD=1 \
+	  DATASET=$(bench_track_kitchen_name) DATA_ROOT=$(patsubst %/,%,$(dir $(BENCH_TRACK_KITCHEN))) \
+	  SETTINGS=$(BENCH_TRACK_SETTINGS) PIPELINE_ROOT=$(bench_track_pipeline)
+endif
+	$(MAKE) --no-print-directory SKIP_BUILD=1 \
+	  $(foreach p,$(BENCH_TRACK_PATHS),$(bench_track_pipeline)/$(p)-clean/voc.rrv) \
+	  DATASET="$(addsuffix -clean,$(BENCH_TRACK_PATHS))" DATA_ROOT=$(BENCH_TRACK_DIR)/synth \
+	  PIPELINE_ROOT=$(bench_track_pipeline) VOCAB_L=5 VOCAB_STRIDE=2
 
 bench-track: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target $(bench_track_tools)
@@ -74,6 +71,7 @@ bench-track: configure
 	@mkdir -p bench/results
 	$(BUILD_DIR)/bench/bench_track --bin $(BIN) --data $(BENCH_TRACK_DIR) \
 	  --kitchen $(BENCH_TRACK_KITCHEN) --kitchen-settings $(BENCH_TRACK_SETTINGS) \
+	  --kitchen-vocab $(bench_track_kitchen_vocab) \
 	  --paths "$(BENCH_TRACK_PATHS)" --machine "$$(bench/machine.sh)" \
 	  --out bench/results/track-$$(date -u +%Y-%m-%d)
 

@@ -3,7 +3,10 @@
 // (ComputeAte, as rrslam-eval ate) and writes every figure beside its goal.
 //
 //   bench_track --bin DIR --data DIR --kitchen DIR --kitchen-settings YAML
-//               --paths "loop sweep rotation" --machine TEXT --out PREFIX
+//               --kitchen-vocab FILE --paths "loop sweep rotation"
+//               --machine TEXT --out PREFIX
+// reads the synthetic sequences from DATA/synth/<path>-{clean,noisy}/ and
+// their vocabularies from DATA/pipeline/<path>-clean/voc.rrv, and
 // writes PREFIX.txt and PREFIX.json. Exit status 0 when every run completed
 // (goals missed are reported as FAIL in the files, not as an error).
 #include <sys/wait.h>
@@ -133,12 +136,13 @@ size_t Count(const nlohmann::json& run, const char* key) {
 
 int main(int argc, char** argv) {
   CLI::App app("Runs the track benchmark and writes its figures beside their goals.");
-  fs::path bin, data, kitchen, kitchen_settings;
+  fs::path bin, data, kitchen, kitchen_settings, kitchen_vocab;
   std::string paths = "loop sweep rotation", machine, out_prefix;
   app.add_option("--bin", bin, "Folder of the rrslam-* executables")->required();
   app.add_option("--data", data, "Benchmark data folder (bench/track/bench.mk)")->required();
   app.add_option("--kitchen", kitchen, "7scenes-kitchen sequence folder");
   app.add_option("--kitchen-settings", kitchen_settings, "Its settings YAML");
+  app.add_option("--kitchen-vocab", kitchen_vocab, "Vocabulary trained on it");
   app.add_option("--paths", paths, "Synthetic camera paths")->capture_default_str();
   app.add_option("--machine", machine, "Machine description line");
   app.add_option("--out", out_prefix, "Result files prefix (writes .txt and .json)")->required();
@@ -150,7 +154,6 @@ int main(int argc, char** argv) {
   fs::create_directories(runs);
 
   // 7scenes-kitchen.
-  const fs::path kitchen_vocab = data / "kitchen" / "voc.rrv";
   if (!kitchen.empty() && fs::exists(kitchen / "rgb.txt") && fs::exists(kitchen_vocab)) {
     const std::string s = "7scenes-kitchen, batch";
     const RunResult a =
@@ -235,7 +238,7 @@ int main(int argc, char** argv) {
   std::istringstream path_list(paths);
   std::string path;
   while (path_list >> path) {
-    const fs::path vocab = data / "synth" / (path + "-vocab") / "voc.rrv";
+    const fs::path vocab = data / "pipeline" / (path + "-clean") / "voc.rrv";
     for (const std::string variant : {"clean", "noisy"}) {
       const fs::path seq = data / "synth" / (path + "-" + variant);
       const std::string s = "synthetic " + path + ", " +
