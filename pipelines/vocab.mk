@@ -51,6 +51,9 @@ vocab_camera = $(firstword $(foreach c,1 2 3,$(if \
 vocab_settings = $(or $(SETTINGS),$(wildcard $(call vocab_seq,$(1))/settings.yaml),$(if \
   $(call vocab_camera,$(1)),$(SHARED_DATA)/settings/tum$(call vocab_camera,$(1)).yaml))
 
+vocab_no_settings = vocab: no settings for '$(1)': give SETTINGS=<yaml> (no settings.yaml in \
+  the sequence, no TUM camera in the name)
+
 .PHONY: vocab
 vocab: $(foreach d,$(DATASET),$(PIPELINE_ROOT)/$(d)/voc.rrv $(PIPELINE_ROOT)/$(d)/voc.txt)
 	@$(foreach d,$(DATASET),echo "vocab: $(PIPELINE_ROOT)/$(d)/voc.rrv and voc.txt";)
@@ -62,8 +65,7 @@ ifneq ($(filter vocab,$(MAKECMDGOALS)),)
   $(foreach d,$(DATASET),$(if $(call vocab_seq,$(d)),,$(error vocab: no sequence '$(d)' \
     under DATA_ROOT=$(DATA_ROOT) (looked for $(DATA_ROOT)/$(d)/rgb.txt and \
     $(DATA_ROOT)/rgbd_dataset_freiburg$(patsubst fr%,%,$(d))/rgb.txt))))
-  $(foreach d,$(DATASET),$(if $(call vocab_settings,$(d)),,$(error vocab: no settings for \
-    '$(d)': give SETTINGS=<yaml> (no settings.yaml in the sequence, no TUM camera in the name))))
+  $(foreach d,$(DATASET),$(if $(call vocab_settings,$(d)),,$(error $(call vocab_no_settings,$(d)))))
 endif
 
 # Rewrites $@ only when its content changes, so that dependents rebuild only
@@ -87,6 +89,7 @@ $(PIPELINE_ROOT)/$(1)/build.params: vocab-force
 $(PIPELINE_ROOT)/$(1)/features.h5: $(PIPELINE_ROOT)/$(1)/extract.params $(BIN)/rrslam-extract \
     $(wildcard $(call vocab_seq,$(1))/rgb.txt $(call vocab_seq,$(1))/depth.txt \
                $(call vocab_seq,$(1))/associations.txt) $(call vocab_settings,$(1))
+	$(if $(call vocab_settings,$(1)),,@echo "$(call vocab_no_settings,$(1))" >&2; exit 66)
 	$(BIN)/rrslam-extract --sequence $(call vocab_seq,$(1)) --settings $(call vocab_settings,$(1)) \
 	  --stride $(EXTRACT_STRIDE) --max-frames $(EXTRACT_MAX_FRAMES) --out $$@
 

@@ -44,13 +44,14 @@ class VocabPipelineTest : public ::testing::Test {
   static fs::path data() { return dir_->path() / "data"; }
   static fs::path out() { return dir_->path() / "pipeline"; }
 
-  // `make vocab` with the test's executables (no build step) and data root.
-  // The outer make's job server is not inherited (MAKEFLAGS unset).
-  static testing::CommandResult MakeVocab(const std::string& dataset,
-                                          const std::string& extra = "") {
+  // `make vocab` (or another goal of pipelines/vocab.mk, as eval.mk and the
+  // benchmarks make them) with the test's executables (no build step) and data
+  // root. The outer make's job server is not inherited (MAKEFLAGS unset).
+  static testing::CommandResult MakeVocab(const std::string& dataset, const std::string& extra = "",
+                                          const std::string& goal = "vocab") {
     return testing::RunCommand(
         "env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make --no-print-directory -C " +
-        Quote(SourceDir()) + " vocab DATASET=" + dataset + " DATA_ROOT=" + Quote(data()) +
+        Quote(SourceDir()) + " " + goal + " DATASET=" + dataset + " DATA_ROOT=" + Quote(data()) +
         " PIPELINE_ROOT=" + Quote(out()) + " BIN=" + Quote(fs::absolute(testing::BinDir())) +
         " SKIP_BUILD=1 VOCAB_K=10 VOCAB_L=4 " + extra);
   }
@@ -151,6 +152,22 @@ TEST_F(VocabPipelineTest, UnknownDatasetFailsWithoutOutput) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("no sequence 'no_such_sequence'"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out() / "no_such_sequence"));
+}
+
+// A sequence without settings (no settings.yaml, no TUM camera in its name,
+// no SETTINGS=): `make vocab` stops before running anything, and a file goal
+// of the pipeline (as eval-all asks for) fails with the same message.
+TEST_F(VocabPipelineTest, SequenceWithoutSettingsFailsWithoutOutput) {
+  const fs::path seq = data() / "plain";
+  fs::create_directories(seq);
+  fs::copy_file(data() / "room" / "rgb.txt", seq / "rgb.txt");
+  fs::copy_file(data() / "room" / "depth.txt", seq / "depth.txt");
+  for (const std::string& goal : {std::string("vocab"), Quote(out() / "plain" / "voc.rrv")}) {
+    const auto r = MakeVocab("plain", "", goal);
+    EXPECT_NE(r.exit_code, 0) << goal;
+    EXPECT_NE(r.output.find("no settings for 'plain'"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(out() / "plain" / "features.h5")) << goal;
+  }
 }
 
 }  // namespace
