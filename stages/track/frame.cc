@@ -90,9 +90,15 @@ void View::SetPose(const Rigid3d& T_cam_world) {
   has_pose_ = true;
 }
 
+int FeatureVectorLevelsUp(int vocabulary_levels) {
+  const int depth = std::max(vocabulary_levels - 4, std::min(2, vocabulary_levels - 1));
+  return vocabulary_levels - depth;
+}
+
 void View::ComputeBow(const Vocabulary& vocabulary) {
   if (has_bow_) return;
-  vocabulary.Transform(features_->descriptors, &bow_, &feature_vector_, kFeatureVectorLevelsUp);
+  vocabulary.Transform(features_->descriptors, &bow_, &feature_vector_,
+                       FeatureVectorLevelsUp(vocabulary.levels()));
   has_bow_ = true;
 }
 

@@ -130,7 +130,13 @@ class Frame : public View {
   uint64_t id_ = 0;
 };
 
-// Levels above the leaves at which feature vectors group features (ORB-SLAM2: 4).
-inline constexpr int kFeatureVectorLevelsUp = 4;
+// Levels above the leaves at which a vocabulary of depth L groups the
+// features of a view into its feature vector (the candidate sets of the
+// bag-of-words searches). ORB-SLAM2 groups 4 levels up, at depth L - 4: k^2
+// groups for its L = 6 vocabulary. That is kept for L >= 6; a smaller
+// vocabulary groups at depth min(2, L - 1) instead, so that its searches stay
+// as selective (k^2 groups at L = 4 or 5) rather than falling to k groups at
+// L = 5 and one at L <= 4.
+int FeatureVectorLevelsUp(int vocabulary_levels);
 
 }  // namespace rrslam

@@ -9,14 +9,10 @@
 namespace rrslam {
 namespace {
 
+using testing::HundredWordVocabulary;
 using testing::MakeGridKeyFrame;
 using testing::MakeObservedPoint;
 using testing::TestSensor;
-
-Vocabulary HundredWordVocabulary() {
-  const std::string s = testing::HundredWordVocabularyText();
-  return Vocabulary::FromBytes({reinterpret_cast<const uint8_t*>(s.data()), s.size()}, "test");
-}
 
 // An L1-normalized BoW vector with equal weights on `words`.
 BowVector Bow(const std::vector<WordId>& words) {

@@ -10,6 +10,7 @@ namespace rrslam {
 namespace {
 
 using testing::FlipBits;
+using testing::HundredWordVocabulary;
 using testing::MakeFrame;
 using testing::MakeFreePoint;
 using testing::RandomDescriptor;
@@ -18,6 +19,36 @@ using testing::RenderView;
 using testing::SmallMotion;
 using testing::TestSensor;
 using testing::ViewOptions;
+
+TEST(FeatureVectorTest, GroupsAsOrbSlam2FromSixLevelsAtDepthTwoBelow) {
+  for (int levels = 6; levels <= 9; ++levels) EXPECT_EQ(FeatureVectorLevelsUp(levels), 4);
+  EXPECT_EQ(FeatureVectorLevelsUp(5), 3);  // Depth 2 (ORB-SLAM2's 4 up: depth 1).
+  EXPECT_EQ(FeatureVectorLevelsUp(4), 2);  // Depth 2 (ORB-SLAM2: the root).
+  EXPECT_EQ(FeatureVectorLevelsUp(3), 1);  // Depth 2.
+  EXPECT_EQ(FeatureVectorLevelsUp(2), 1);  // Depth 1: never the words themselves.
+  EXPECT_EQ(FeatureVectorLevelsUp(1), 1);  // The root.
+}
+
+TEST(FeatureVectorTest, TwoLevelVocabularyGroupsByFirstLevelNodes) {
+  // With four levels up every feature would share the root's group; the
+  // frame's feature vector must use the ten first-level nodes (ids 1 to 10).
+  const Vocabulary vocabulary = HundredWordVocabulary();
+  const SensorModel sensor = TestSensor();
+  std::mt19937 rng(11);
+  ViewOptions options;
+  options.distractors = 200;
+  Frame frame = MakeFrame(sensor, RenderView(sensor, {}, Rigid3d(), rng, options), 0, Rigid3d());
+  frame.ComputeBow(vocabulary);
+  const FeatureVector& fv = frame.feature_vector();
+  EXPECT_GE(fv.size(), 5u);
+  size_t features = 0;
+  for (const auto& [node, indices] : fv.entries) {
+    EXPECT_GE(node, 1u);
+    EXPECT_LE(node, 10u);
+    features += indices.size();
+  }
+  EXPECT_EQ(features, frame.size());
+}
 
 TEST(RotationHistogramTest, BinsAreTwelveDegreesCentredOnMultiples) {
   EXPECT_EQ(RotationHistogram::Bin(0), 0);

@@ -202,4 +202,10 @@ inline std::string HundredWordVocabularyText() {
   return text.str();
 }
 
+// That vocabulary, loaded.
+inline Vocabulary HundredWordVocabulary() {
+  const std::string s = HundredWordVocabularyText();
+  return Vocabulary::FromBytes({reinterpret_cast<const uint8_t*>(s.data()), s.size()}, "test");
+}
+
 }  // namespace rrslam::testing
