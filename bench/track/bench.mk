@@ -4,7 +4,8 @@
 #    vocabulary trained on that sequence: frames tracked, ATE RMSE (goal
 #    <= 4.3 cm), median tracking time per frame with extraction, without image
 #    loading (goal <= 15 ms), peak memory (goal <= 500 MB), two batch runs
-#    byte-identical, and a realtime run paced at 30 Hz (local mapping keeps up).
+#    byte-identical, and a realtime run paced at 30 Hz (local mapping keeps up);
+#    as a diagnostic, the ATE with other vocabularies trained on the sequence.
 #  - Synthetic rrslam-synth sequences of BENCH_TRACK_FRAMES frames (loop,
 #    sweep, rotation), noise-free depth and default noise, each with a
 #    vocabulary trained on its noise-free rendering: all frames tracked, ATE
@@ -23,6 +24,8 @@
 #   synth/<path>-clean/, synth/<path>-noisy/   sequences (rrslam-synth, seed 1)
 #   pipeline/<path>-clean/voc.rrv  vocabulary trained on <path>-clean
 #                              (k = 10, L = 5, every 2nd frame)
+#   pipeline-stride2-seed<s>/7scenes-kitchen/voc.rrv  the kitchen's other
+#                              vocabularies (diagnostic, BENCH_TRACK_OTHER_SEEDS)
 BENCH_TRACK_DIR ?= $(BUILD_DIR)/bench-data/track
 BENCH_TRACK_FRAMES ?= 600
 BENCH_TRACK_KITCHEN ?= $(SHARED_DATA)/7scenes-kitchen
@@ -52,13 +55,24 @@ bench_track_synth_inputs := $(foreach p,$(BENCH_TRACK_PATHS), \
   $(BENCH_TRACK_DIR)/synth/$(p)-clean/groundtruth.txt \
   $(BENCH_TRACK_DIR)/synth/$(p)-noisy/groundtruth.txt)
 bench_track_has_kitchen := $(wildcard $(BENCH_TRACK_KITCHEN)/rgb.txt)
+bench_track_kitchen_args := SKIP_BUILD=1 DATASET=$(bench_track_kitchen_name) \
+  DATA_ROOT=$(patsubst %/,%,$(dir $(BENCH_TRACK_KITCHEN))) SETTINGS=$(BENCH_TRACK_SETTINGS)
+# Diagnostic: the kitchen's ATE with other vocabularies trained on it (every
+# 2nd frame, with these k-means seeds), to show its spread over training choices.
+BENCH_TRACK_OTHER_SEEDS ?= 0 1
+bench_track_other_pipeline = $(BENCH_TRACK_DIR)/pipeline-stride2-seed$(1)
+bench_track_other_vocabs := $(foreach s,$(BENCH_TRACK_OTHER_SEEDS), \
+  $(call bench_track_other_pipeline,$(s))/$(bench_track_kitchen_name)/voc.rrv)
 
 .PHONY: bench-track bench-track-data
 bench-track-data: $(bench_track_synth_inputs)
 ifneq ($(bench_track_has_kitchen),)
-	$(MAKE) --no-print-directory $(bench_track_kitchen_vocab) SKIP_BUILD=1 \
-	  DATASET=$(bench_track_kitchen_name) DATA_ROOT=$(patsubst %/,%,$(dir $(BENCH_TRACK_KITCHEN))) \
-	  SETTINGS=$(BENCH_TRACK_SETTINGS) PIPELINE_ROOT=$(bench_track_pipeline)
+	$(MAKE) --no-print-directory $(bench_track_kitchen_vocab) $(bench_track_kitchen_args) \
+	  PIPELINE_ROOT=$(bench_track_pipeline)
+	$(foreach s,$(BENCH_TRACK_OTHER_SEEDS),$(MAKE) --no-print-directory \
+	  $(call bench_track_other_pipeline,$(s))/$(bench_track_kitchen_name)/voc.rrv \
+	  $(bench_track_kitchen_args) PIPELINE_ROOT=$(call bench_track_other_pipeline,$(s)) \
+	  VOCAB_STRIDE=2 VOCAB_SEED=$(s) &&) true
 endif
 	$(MAKE) --no-print-directory SKIP_BUILD=1 \
 	  $(foreach p,$(BENCH_TRACK_PATHS),$(bench_track_pipeline)/$(p)-clean/voc.rrv) \
@@ -72,6 +86,7 @@ bench-track: configure
 	$(BUILD_DIR)/bench/bench_track --bin $(BIN) --data $(BENCH_TRACK_DIR) \
 	  --kitchen $(BENCH_TRACK_KITCHEN) --kitchen-settings $(BENCH_TRACK_SETTINGS) \
 	  --kitchen-vocab $(bench_track_kitchen_vocab) \
+	  $(foreach v,$(bench_track_other_vocabs),--kitchen-other-vocab $(v)) \
 	  --paths "$(BENCH_TRACK_PATHS)" --machine "$$(bench/machine.sh)" \
 	  --out bench/results/track-$$(date -u +%Y-%m-%d)
 
