@@ -61,8 +61,7 @@ bench_track_kitchen_args := SKIP_BUILD=1 DATASET=$(bench_track_kitchen_name) \
 # 2nd frame, with these k-means seeds), to show its spread over training choices.
 BENCH_TRACK_OTHER_SEEDS ?= 0 1
 bench_track_other_pipeline = $(BENCH_TRACK_DIR)/pipeline-stride2-seed$(1)
-bench_track_other_vocabs := $(foreach s,$(BENCH_TRACK_OTHER_SEEDS), \
-  $(call bench_track_other_pipeline,$(s))/$(bench_track_kitchen_name)/voc.rrv)
+bench_track_other_vocab = $(call bench_track_other_pipeline,$(1))/$(bench_track_kitchen_name)/voc.rrv
 
 .PHONY: bench-track bench-track-data
 bench-track-data: $(bench_track_synth_inputs)
@@ -70,8 +69,7 @@ ifneq ($(bench_track_has_kitchen),)
 	$(MAKE) --no-print-directory $(bench_track_kitchen_vocab) $(bench_track_kitchen_args) \
 	  PIPELINE_ROOT=$(bench_track_pipeline)
 	$(foreach s,$(BENCH_TRACK_OTHER_SEEDS),$(MAKE) --no-print-directory \
-	  $(call bench_track_other_pipeline,$(s))/$(bench_track_kitchen_name)/voc.rrv \
-	  $(bench_track_kitchen_args) PIPELINE_ROOT=$(call bench_track_other_pipeline,$(s)) \
+	  $(call bench_track_other_vocab,$(s)) $(bench_track_kitchen_args) PIPELINE_ROOT=$(call bench_track_other_pipeline,$(s)) \
 	  VOCAB_STRIDE=2 VOCAB_SEED=$(s) &&) true
 endif
 	$(MAKE) --no-print-directory SKIP_BUILD=1 \
@@ -86,7 +84,7 @@ bench-track: configure
 	$(BUILD_DIR)/bench/bench_track --bin $(BIN) --data $(BENCH_TRACK_DIR) \
 	  --kitchen $(BENCH_TRACK_KITCHEN) --kitchen-settings $(BENCH_TRACK_SETTINGS) \
 	  --kitchen-vocab $(bench_track_kitchen_vocab) \
-	  $(foreach v,$(bench_track_other_vocabs),--kitchen-other-vocab $(v)) \
+	  $(foreach s,$(BENCH_TRACK_OTHER_SEEDS),--kitchen-other-vocab $(call bench_track_other_vocab,$(s))) \
 	  --paths "$(BENCH_TRACK_PATHS)" --machine "$$(bench/machine.sh)" \
 	  --out bench/results/track-$$(date -u +%Y-%m-%d)
 
