@@ -353,14 +353,17 @@ OrbExtractor::OrbExtractor(const OrbSettings& settings, int num_threads)
     scale_factors_[l] = std::pow(settings.scale_factor, l);
     level_sigma2_[l] = scale_factors_[l] * scale_factors_[l];
   }
-  // Level l has 1/s^(2l) of level 0's area: n_l = n_0 r^l with r = 1/s^2 and
-  // n_0 = N (1 - r) / (1 - r^L); rounding is absorbed by the last level.
-  const double ratio = 1.0 / (settings.scale_factor * settings.scale_factor);
-  double wanted = settings.n_features * (1.0 - ratio) / (1.0 - std::pow(ratio, n_levels));
+  // ORB-SLAM2's rule: level l gets a share of the features proportional to
+  // its linear scale 1/s^l (not its area): n_l = n_0 r^l with r = 1/s and
+  // n_0 = N (1 - r) / (1 - r^L), in single precision and rounded half to even
+  // (cvRound) as ORB-SLAM2 computes it; the last level takes the remainder.
+  const float ratio = 1.0f / static_cast<float>(settings.scale_factor);
+  float wanted = static_cast<float>(settings.n_features) * (1.0f - ratio) /
+                 (1.0f - static_cast<float>(std::pow(static_cast<double>(ratio), n_levels)));
   features_per_level_.resize(n_levels);
   int assigned = 0;
   for (int l = 0; l + 1 < n_levels; ++l) {
-    features_per_level_[l] = static_cast<int>(std::lround(wanted));
+    features_per_level_[l] = static_cast<int>(std::lrint(wanted));
     assigned += features_per_level_[l];
     wanted *= ratio;
   }

@@ -11,9 +11,9 @@
 // Algorithm (see docs/extract.md):
 //  1. Pyramid: level l is level l-1 resized (bilinear) by 1 / scale_factor,
 //     of size round(width / scale_factor^l) x round(height / scale_factor^l).
-//  2. Features per level: n_features split in proportion to level area, a
-//     geometric series of ratio 1 / scale_factor^2 (the last level takes the
-//     remainder).
+//  2. Features per level: n_features split in proportion to the level's
+//     linear scale, a geometric series of ratio 1 / scale_factor (ORB-SLAM2's
+//     rule; the last level takes the remainder).
 //  3. FAST-9 with non-maximum suppression at ini_th_fast over the level
 //     (kEdgeThreshold px from the border), then at min_th_fast in every grid
 //     cell of about kFastCellSize px that gave no corner.

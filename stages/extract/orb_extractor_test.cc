@@ -72,11 +72,10 @@ TEST(OrbExtractor, LevelScalesAndFeatureBudget) {
   const std::vector<int>& per_level = extractor.features_per_level();
   ASSERT_EQ(per_level.size(), 8u);
   EXPECT_EQ(std::accumulate(per_level.begin(), per_level.end(), 0), 1000);
-  // Proportional to level area: a geometric series of ratio 1 / 1.2^2.
-  EXPECT_NEAR(per_level[0], 1000 * (1 - 1 / 1.44) / (1 - std::pow(1 / 1.44, 8)), 0.5);
-  for (int l = 1; l < 7; ++l) {
-    EXPECT_NEAR(per_level[l], per_level[0] * std::pow(1 / 1.44, l), 1.0) << l;
-  }
+  // ORB-SLAM2's split, proportional to the level's linear scale (ratio 1 / 1.2,
+  // not the area's 1 / 1.44): 217 181 151 126 105 87 73, the rest on level 7.
+  const std::vector<int> orbslam2 = {217, 181, 151, 126, 105, 87, 73, 60};
+  EXPECT_EQ(per_level, orbslam2);
   EXPECT_GT(per_level[7], 0);
 }
 
