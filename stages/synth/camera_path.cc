@@ -40,13 +40,15 @@ std::string TrajectoryKindName(TrajectoryKind kind) {
       return "sweep";
     case TrajectoryKind::kRotation:
       return "rotation";
+    case TrajectoryKind::kShake:
+      return "shake";
   }
   return "unknown";
 }
 
 bool ParseTrajectoryKind(const std::string& name, TrajectoryKind* kind) {
-  for (TrajectoryKind k :
-       {TrajectoryKind::kLoop, TrajectoryKind::kSweep, TrajectoryKind::kRotation}) {
+  for (TrajectoryKind k : {TrajectoryKind::kLoop, TrajectoryKind::kSweep, TrajectoryKind::kRotation,
+                           TrajectoryKind::kShake}) {
     if (name == TrajectoryKindName(k)) {
       *kind = k;
       return true;
@@ -116,6 +118,40 @@ Rigid3d CameraPath::T_world_cam(double t) const {
       const double amplitude = std::min(75 * kDeg, kMainTurnRate * cycle / kTwoPi);
       const double yaw = 45 * kDeg + amplitude * std::sin(kTwoPi * cycles * s) + yaw_swing;
       return PoseFromAngles(Eigen::Vector3d(0.2, 0.1, 1.35), yaw, -8 * kDeg + pitch_swing, roll);
+    }
+    case TrajectoryKind::kShake: {
+      // Every term is a Swing: a whole number of cycles per sequence (so the
+      // path is periodic) at about its frequency (Hz; unrelated to the other
+      // terms' so that they do not lock together). Its amplitude is its peak
+      // rate (rad/s or m/s) over 2 pi times the actual frequency; the caps
+      // exceed rate / (2 pi frequency), so the rates bind at nearly every
+      // duration and the speeds do not depend on it.
+      // The main term is an elliptic wobble of yaw and pitch (same
+      // frequency, a quarter cycle apart), whose rate vector keeps a nearly
+      // constant length (76 to 85 deg/s); the other terms, with at most
+      // 68 deg/s together, make the motion irregular. The angle between
+      // frames at 30 fps thus stays within about 1.5 to 4.4 deg (median
+      // 2.8 deg, over 95% of frames within 2 to 4 deg; checked for 2 to 6000
+      // frames). Amplitudes add up to at most 40 deg of yaw, 18 deg of pitch
+      // and 9 deg of roll.
+      const double yaw = Swing(s, T, 22 * kDeg, 0.11, 14 * kDeg, 0.3) +  // Slow drift.
+                         Swing(s, T, 16 * kDeg, 0.9, 85 * kDeg, 0.0) +   // Main wobble.
+                         Swing(s, T, 2 * kDeg, 1.37, 16 * kDeg, 1.1);
+      const double pitch = Swing(s, T, 16 * kDeg, 0.9, 76 * kDeg, 0.5 * M_PI) +  // Main wobble.
+                           Swing(s, T, 2 * kDeg, 1.37, 16 * kDeg, 1.1 - 0.5 * M_PI);
+      const double roll_shake =
+          Swing(s, T, 8 * kDeg, 0.67, 28 * kDeg, 2.5) + Swing(s, T, 1 * kDeg, 1.93, 10 * kDeg, 0.6);
+      // Hand tremor of the centre: at most 2.1 cm per axis (3.4 cm in all),
+      // at most 0.15 m/s.
+      const Eigen::Vector3d tremor(
+          Swing(s, T, 0.015, 0.53, 0.05, 0.9) + Swing(s, T, 0.006, 1.21, 0.04, 2.7),
+          Swing(s, T, 0.015, 0.61, 0.05, 4.2) + Swing(s, T, 0.006, 1.47, 0.04, 0.2),
+          Swing(s, T, 0.012, 0.47, 0.035, 1.9) + Swing(s, T, 0.005, 1.13, 0.03, 5.1));
+      // The centre is 1.15 m from the table and 2.4 m from the east wall, so
+      // that most of the view is within the sensor's reliable depth range
+      // (ThDepth, 3 m).
+      return PoseFromAngles(Eigen::Vector3d(0.6, 0.0, 1.35) + tremor, yaw, -8 * kDeg + pitch,
+                            roll_shake);
     }
   }
   return Rigid3d();

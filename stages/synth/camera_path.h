@@ -3,14 +3,18 @@
 // A path is a smooth, periodic function of time: the pose at time t (seconds)
 // for a sequence lasting `duration` seconds, with the first and the last
 // instant at the same pose (loop) or at rest at the start (sweep and rotation
-// swing back). Poses are T_world_cam with the camera frame of camera.h
-// (x right, y down, z forward) and the world frame of scene.h (z up).
+// swing back; shake is periodic). Poses are T_world_cam with the camera frame
+// of camera.h (x right, y down, z forward) and the world frame of scene.h
+// (z up).
 //
 // Speeds are those of a hand-held Kinect: translation at most ~0.4 m/s and
 // angular speed at most 30 deg/s for every duration (paths scale with the
 // duration, and long sequences repeat laps or cycles instead of speeding up
-// or slowing to a crawl). The camera stays in the free middle of the room,
-// at least 0.5 m from every surface. Immutable; thread-safe.
+// or slowing to a crawl). The exception is shake, which exercises fast
+// rotation: mostly 60 to 120 deg/s (2 to 4 degrees between frames at 30 fps),
+// never above 135 deg/s, likewise for every duration. The camera stays in the
+// free middle of the room, at least 0.5 m from every surface. Immutable;
+// thread-safe.
 #pragma once
 
 #include <string>
@@ -33,9 +37,21 @@ enum class TrajectoryKind {
   // A pure rotation in place: the camera centre never moves; it pans back and
   // forth (up to +-75 deg of yaw) with small pitch and roll swings.
   kRotation,
+  // Fast hand-held shaking around a near-fixed centre: the camera stays
+  // within 4 cm of (0.6, 0, 1.35) m (hand tremor) and looks east (+x) at the
+  // table, the screen, the cabinet and the column, 8 deg down, while it
+  // wobbles in yaw (within +-40 deg), pitch (+-18 deg) and roll (+-9 deg):
+  // smooth sums of sinusoids of unrelated frequencies per axis, dominated by
+  // an elliptic wobble of yaw and pitch at about 0.9 Hz. Angular speed: median
+  // 85 deg/s, over 95% of the time within 60 to 120 deg/s, at most 135 deg/s
+  // (at 30 fps: median 2.8 degrees between frames, 2 to 4 degrees for over
+  // 95% of frames, at most 4.5), for every duration. Periodic: the last
+  // instant is at the first's pose. Rendered with motion blur by default
+  // (SynthOptions::MotionBlur()).
+  kShake,
 };
 
-// "loop", "sweep", "rotation".
+// "loop", "sweep", "rotation", "shake".
 std::string TrajectoryKindName(TrajectoryKind kind);
 // Parses a name of TrajectoryKindName; false when unknown.
 bool ParseTrajectoryKind(const std::string& name, TrajectoryKind* kind);

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "stages/synth/scene.h"
 
@@ -10,8 +12,11 @@ namespace rrslam::synth {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
+// The kinds within the hand-held speed bounds; shake is the fast exception.
 const TrajectoryKind kKinds[] = {TrajectoryKind::kLoop, TrajectoryKind::kSweep,
                                  TrajectoryKind::kRotation};
+const TrajectoryKind kAllKinds[] = {TrajectoryKind::kLoop, TrajectoryKind::kSweep,
+                                    TrajectoryKind::kRotation, TrajectoryKind::kShake};
 // Short (tests), default, the benchmark's 600, and long sequences.
 const int kFrameCounts[] = {2, 10, 60, 120, 300, 539, 540, 600, 1000, 1500, 3000};
 
@@ -53,7 +58,7 @@ TEST(CameraPath, TimestampsAndSamplesFollowTheContinuousPath) {
 }
 
 TEST(CameraPath, QuaternionsKeepTheirSign) {
-  for (TrajectoryKind kind : kKinds) {
+  for (TrajectoryKind kind : kAllKinds) {
     const Trajectory t = MakeTrajectory(kind, 600, 30.0);
     for (size_t i = 1; i < t.size(); ++i) {
       ASSERT_GE(t[i].T_world_cam.rotation.dot(t[i - 1].T_world_cam.rotation), 0.0)
@@ -166,7 +171,7 @@ TEST(CameraPath, CameraKeepsClearOfEverySurface) {
   SceneOptions options;
   options.texel_size = 0.05;  // Geometry only: coarse textures build fast.
   const Scene scene = Scene::StandardRoom(options);
-  for (TrajectoryKind kind : kKinds) {
+  for (TrajectoryKind kind : kAllKinds) {
     for (int frames : kFrameCounts) {
       for (const auto& pose : MakeTrajectory(kind, frames, 30.0)) {
         const Eigen::Vector3d& c = pose.T_world_cam.translation;
@@ -180,6 +185,96 @@ TEST(CameraPath, CameraKeepsClearOfEverySurface) {
         EXPECT_GE(hit->distance, 0.5);
       }
     }
+  }
+}
+
+// Angles (degrees) between consecutive poses, sorted.
+std::vector<double> SortedTurnsDeg(const Trajectory& t) {
+  std::vector<double> turns;
+  for (size_t i = 1; i < t.size(); ++i) {
+    turns.push_back(RotationAngle(t[i].T_world_cam.rotation, t[i - 1].T_world_cam.rotation) / kDeg);
+  }
+  std::sort(turns.begin(), turns.end());
+  return turns;
+}
+
+TEST(CameraPath, ShakeTurnsTwoToFourDegreesPerFrameAt30Hz) {
+  // The figures: 600 frames at 30 Hz turn 2 to 4 degrees from frame
+  // to frame (60 to 120 deg/s), never much more.
+  const std::vector<double> turns = SortedTurnsDeg(MakeTrajectory(TrajectoryKind::kShake, 600, 30));
+  ASSERT_EQ(turns.size(), 599u);
+  const double median = turns[turns.size() / 2];
+  EXPECT_GE(median, 2.5);
+  EXPECT_LE(median, 3.2);
+  EXPECT_GE(turns.front(), 1.5);
+  EXPECT_LE(turns.back(), 4.5);
+  const auto in_range =
+      std::count_if(turns.begin(), turns.end(), [](double turn) { return turn >= 2 && turn <= 4; });
+  EXPECT_GE(in_range, 0.9 * turns.size()) << "median " << median;
+
+  // The same speeds for every duration (the amplitudes follow the duration).
+  for (int frames : kFrameCounts) {
+    if (frames < 10) continue;
+    const std::vector<double> t =
+        SortedTurnsDeg(MakeTrajectory(TrajectoryKind::kShake, frames, 30));
+    EXPECT_GE(t[t.size() / 2], 2.0) << frames;
+    EXPECT_LE(t[t.size() / 2], 4.0) << frames;
+    EXPECT_LE(t.back(), 4.5) << frames;
+  }
+}
+
+TEST(CameraPath, ShakeStaysNearItsCentreAndLooksAtTheEastWall) {
+  for (int frames : kFrameCounts) {
+    const Trajectory t = MakeTrajectory(TrajectoryKind::kShake, frames, 30.0);
+    // Periodic: the last frame (t = duration) is back at the first's pose.
+    EXPECT_LT((t.front().T_world_cam.translation - t.back().T_world_cam.translation).norm(), 1e-9)
+        << frames;
+    EXPECT_LT(RotationAngle(t.front().T_world_cam.rotation, t.back().T_world_cam.rotation), 1e-9)
+        << frames;
+    double max_offset = 0, max_yaw = 0, min_pitch = 0, max_pitch = -1, max_roll = 0;
+    for (size_t i = 0; i < t.size(); ++i) {
+      const Eigen::Matrix3d R = t[i].T_world_cam.RotationMatrix();
+      // Hand tremor only: within a few centimetres of the nominal centre.
+      max_offset = std::max(max_offset,
+                            (t[i].T_world_cam.translation - Eigen::Vector3d(0.6, 0, 1.35)).norm());
+      // Yaw of the optical axis about east (+x), pitch (positive up) and roll
+      // (PoseFromAngles: the x axis tilts down by sin(roll) cos(pitch)).
+      const Eigen::Vector3d f = R.col(2);
+      max_yaw = std::max(max_yaw, std::fabs(std::atan2(f.y(), f.x())));
+      min_pitch = std::min(min_pitch, std::asin(f.z()));
+      max_pitch = std::max(max_pitch, std::asin(f.z()));
+      max_roll = std::max(max_roll, std::fabs(std::atan2(-R(2, 0), -R(2, 1))));
+      if (i > 0) {
+        EXPECT_LE((t[i].T_world_cam.translation - t[i - 1].T_world_cam.translation).norm() * 30.0,
+                  0.2)
+            << frames;
+      }
+    }
+    EXPECT_LE(max_offset, 0.04) << frames;
+    EXPECT_LE(max_yaw, 40 * kDeg) << frames;
+    EXPECT_GE(min_pitch, -28 * kDeg) << frames;
+    EXPECT_LE(max_pitch, 12 * kDeg) << frames;
+    EXPECT_LE(max_roll, 10 * kDeg) << frames;
+    if (frames >= 300) {
+      // A real shake: the centre trembles and the gaze sweeps most of the range.
+      EXPECT_GE(max_offset, 0.01) << frames;
+      EXPECT_GE(max_yaw, 30 * kDeg) << frames;
+      EXPECT_GE(max_pitch - min_pitch, 25 * kDeg) << frames;
+      EXPECT_GE(max_roll, 5 * kDeg) << frames;
+    }
+  }
+}
+
+TEST(CameraPath, ShakeLooksAtSurfacesWithinTheSensorsRange) {
+  SceneOptions options;
+  options.texel_size = 0.05;
+  const Scene scene = Scene::StandardRoom(options);
+  for (const auto& pose : MakeTrajectory(TrajectoryKind::kShake, 600, 30.0)) {
+    const auto hit = scene.RayCast(pose.T_world_cam.translation, Forward(pose.T_world_cam));
+    ASSERT_TRUE(hit.has_value());
+    EXPECT_LE(hit->distance, 3.5);  // The optical axis meets a surface within Kinect range.
+    // Looking at the room's walls, furniture and floor, never the ceiling.
+    EXPECT_NE(scene.surface(hit->surface_id).name, "room.+z");
   }
 }
 

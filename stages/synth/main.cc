@@ -1,5 +1,7 @@
 // rrslam-synth: renders a synthetic TUM-layout RGB-D sequence of a textured
 // room with exact ground truth. See docs/synth.md.
+#include <sstream>
+
 #include "common/cli.h"
 #include "stages/synth/synth.h"
 
@@ -11,8 +13,9 @@ void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
          "--trajectory",
          [o](const std::string& name) { rrslam::synth::ParseTrajectoryKind(name, &o->trajectory); },
          "Camera path: loop (closed loop, ends at its start), sweep (there and back), rotation "
-         "(pan in place)")
-      ->check(CLI::IsMember({"loop", "sweep", "rotation"}))
+         "(pan in place), shake (fast hand-held roll/pitch/yaw shaking in place, 60-135 deg/s; "
+         "motion blur on by default)")
+      ->check(CLI::IsMember({"loop", "sweep", "rotation", "shake"}))
       ->default_str(rrslam::synth::TrajectoryKindName(o->trajectory));
   app.add_option("--frames", o->frames, "Number of frames [1, 100000]")->capture_default_str();
   app.add_option("--fps", o->fps, "Frame rate, Hz; frame i is at i / fps seconds")
@@ -36,9 +39,15 @@ void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
   app.add_option("--brightness-change", o->brightness_change,
                  "Amplitude of the exposure change: gain within 1 +- this [0, 0.9]")
       ->capture_default_str();
-  app.add_option("--motion-blur", o->motion_blur,
-                 "Motion blur, pixels of image motion during the exposure [0, 64]")
-      ->capture_default_str();
+  // Left unset unless given, so that the trajectory chooses the default
+  // (SynthOptions::MotionBlur()); a given value, 0 included, always counts.
+  std::ostringstream shake_blur;
+  shake_blur << rrslam::DefaultMotionBlur(rrslam::synth::TrajectoryKind::kShake);
+  app.add_option_function<double>(
+         "--motion-blur", [o](double pixels) { o->motion_blur = pixels; },
+         "Motion blur, pixels of image motion during the exposure [0, 64]; 0 = none. Default: " +
+             shake_blur.str() + " for shake, 0 for the other trajectories")
+      ->default_str("0 (shake: " + shake_blur.str() + ")");
   app.add_option("--seed", o->seed, "Seed of textures, noise, holes and exposure")
       ->capture_default_str();
   app.add_option("--texel-size", o->texel_size,

@@ -84,8 +84,8 @@ bool SynthOptions::Check(std::string* why) const {
   if (!(brightness_change >= 0 && brightness_change <= 0.9)) {
     return Fail(why, "brightness_change = " + Num(brightness_change) + "; must be in [0, 0.9]");
   }
-  if (!(motion_blur >= 0 && motion_blur <= 64)) {
-    return Fail(why, "motion_blur = " + Num(motion_blur) + "; must be in [0, 64]");
+  if (motion_blur.has_value() && !(*motion_blur >= 0 && *motion_blur <= 64)) {
+    return Fail(why, "motion_blur = " + Num(*motion_blur) + "; must be in [0, 64]");
   }
   if (!(texel_size >= 0.0005 && texel_size <= 0.05)) {
     return Fail(why, "texel_size = " + Num(texel_size) + "; must be in [0.0005, 0.05]");
@@ -94,6 +94,14 @@ bool SynthOptions::Check(std::string* why) const {
     return Fail(why, "threads = " + std::to_string(threads) + "; must be in [0, 256]");
   }
   return true;
+}
+
+double DefaultMotionBlur(synth::TrajectoryKind kind) {
+  return kind == synth::TrajectoryKind::kShake ? kShakeMotionBlur : 0.0;
+}
+
+double SynthOptions::MotionBlur() const {
+  return motion_blur.value_or(DefaultMotionBlur(trajectory));
 }
 
 PinholeCamera SynthOptions::Camera() const {
@@ -141,7 +149,7 @@ std::string SynthOptions::ToJson() const {
   j["depth_noise"] = depth_noise;
   j["depth_holes"] = depth_holes;
   j["brightness_change"] = brightness_change;
-  j["motion_blur"] = motion_blur;
+  j["motion_blur"] = MotionBlur();
   j["seed"] = seed;
   j["texel_size"] = texel_size;
   return j.dump();
@@ -178,7 +186,8 @@ SynthFrame SyntheticSequence::Render(size_t i) const {
   const synth::RenderedFrame rendered = renderer_->Render(frame.T_world_cam);
 
   cv::Mat color = rendered.color;
-  if (options_.motion_blur > 0) {
+  const double motion_blur = options_.MotionBlur();
+  if (motion_blur > 0) {
     // Image motion over one frame interval, averaged over a grid of pixels
     // with depth; the exposure is set so that the image moves `motion_blur`
     // pixels during it (capped at the frame interval).
@@ -201,7 +210,7 @@ SynthFrame SyntheticSequence::Render(size_t i) const {
       }
     }
     const double motion = motion_count > 0 ? motion_sum / motion_count : 0.0;  // px per frame.
-    const double blur = std::min(options_.motion_blur, motion);
+    const double blur = std::min(motion_blur, motion);
     if (blur >= 0.25) {
       const double exposure = dt * blur / motion;
       const int samples = std::clamp(static_cast<int>(std::ceil(blur)) + 1, 2, 32);

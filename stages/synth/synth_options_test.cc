@@ -168,9 +168,41 @@ TEST(SynthOptions, RunSynthRejectsBadOptionsAndWritesNothing) {
   EXPECT_THROW(SyntheticSequence sequence(o), UsageError);
 }
 
+TEST(SynthOptions, ShakeHasMotionBlurAndDepthNoiseUnlessSetOtherwise) {
+  SynthOptions o;
+  EXPECT_FALSE(o.motion_blur.has_value());
+  EXPECT_EQ(o.MotionBlur(), 0.0);  // Loop, sweep and rotation: sharp by default.
+  o.trajectory = synth::TrajectoryKind::kShake;
+  EXPECT_EQ(o.MotionBlur(), kShakeMotionBlur);
+  EXPECT_GT(kShakeMotionBlur, 0.0);
+  EXPECT_DOUBLE_EQ(o.depth_noise, 1.425e-3);  // The Kinect's, for every trajectory.
+  std::string why;
+  EXPECT_TRUE(o.Check(&why)) << why;
+  // The resolved blur is what the sidecar records.
+  EXPECT_NE(o.ToJson().find("\"motion_blur\":8.0"), std::string::npos) << o.ToJson();
+
+  // A value set explicitly wins, 0 (no blur) included.
+  o.motion_blur = 0;
+  EXPECT_EQ(o.MotionBlur(), 0.0);
+  EXPECT_NE(o.ToJson().find("\"motion_blur\":0.0"), std::string::npos) << o.ToJson();
+  o.motion_blur = 3;
+  EXPECT_EQ(o.MotionBlur(), 3.0);
+  o.trajectory = synth::TrajectoryKind::kLoop;
+  EXPECT_EQ(o.MotionBlur(), 3.0);
+  o.depth_noise = 0;
+  o.trajectory = synth::TrajectoryKind::kShake;
+  EXPECT_EQ(o.depth_noise, 0.0);
+
+  EXPECT_EQ(DefaultMotionBlur(synth::TrajectoryKind::kLoop), 0.0);
+  EXPECT_EQ(DefaultMotionBlur(synth::TrajectoryKind::kSweep), 0.0);
+  EXPECT_EQ(DefaultMotionBlur(synth::TrajectoryKind::kRotation), 0.0);
+  EXPECT_EQ(DefaultMotionBlur(synth::TrajectoryKind::kShake), kShakeMotionBlur);
+}
+
 TEST(SynthOptions, TrajectoryNamesRoundTrip) {
+  EXPECT_EQ(synth::TrajectoryKindName(synth::TrajectoryKind::kShake), "shake");
   for (auto kind : {synth::TrajectoryKind::kLoop, synth::TrajectoryKind::kSweep,
-                    synth::TrajectoryKind::kRotation}) {
+                    synth::TrajectoryKind::kRotation, synth::TrajectoryKind::kShake}) {
     synth::TrajectoryKind parsed = synth::TrajectoryKind::kLoop;
     ASSERT_TRUE(synth::ParseTrajectoryKind(synth::TrajectoryKindName(kind), &parsed));
     EXPECT_EQ(parsed, kind);

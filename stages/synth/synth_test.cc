@@ -12,6 +12,7 @@
 #include "common/errors.h"
 #include "common/settings.h"
 #include "common/testing.h"
+#include "stages/synth/renderer.h"
 #include "stages/synth/scene.h"
 
 namespace rrslam {
@@ -232,6 +233,20 @@ TEST(RunSynth, SameOptionsGiveByteIdenticalFilesWhateverTheThreads) {
   EXPECT_NE(a.at("synth.json"), c.at("synth.json"));
 }
 
+TEST(RunSynth, ShakeGivesByteIdenticalFilesWhateverTheThreads) {
+  testing::TempDir dir;
+  SynthOptions o = SmallOptions(dir / "a");
+  o.trajectory = synth::TrajectoryKind::kShake;  // Blurred by default.
+  o.seed = 5;
+  RunSynth(o);
+  o.out = dir / "b";
+  o.threads = 1;
+  RunSynth(o);
+  const auto a = Contents(dir / "a"), b = Contents(dir / "b");
+  ASSERT_EQ(a.size(), 2u * 5u + 6u);
+  EXPECT_TRUE(a == b);
+}
+
 TEST(RunSynth, SequenceRendersTheFramesItWrites) {
   testing::TempDir dir;
   const SynthOptions o = SmallOptions(dir / "seq");
@@ -283,6 +298,40 @@ TEST(RunSynth, MotionBlurSoftensMovingFrames) {
   EXPECT_EQ(cv::norm(blurred.Render(30).depth, sharp.Render(30).depth, cv::NORM_INF), 0.0);
 }
 
+TEST(RunSynth, ShakeIsBlurredByDefaultAndSharpWithZeroBlur) {
+  SynthOptions o = SmallOptions("");
+  o.frames = 60;
+  o.trajectory = synth::TrajectoryKind::kShake;
+  const SyntheticSequence blurred(o);  // motion_blur unset: the shake's default.
+  o.motion_blur = 0;
+  const SyntheticSequence sharp(o);
+  o.motion_blur = kShakeMotionBlur;
+  const SyntheticSequence explicitly_blurred(o);
+  auto gradient_energy = [](const cv::Mat& color) {
+    cv::Mat gray, dx, dy;
+    cv::cvtColor(color, gray, cv::COLOR_BGR2GRAY);
+    cv::Sobel(gray, dx, CV_32F, 1, 0);
+    cv::Sobel(gray, dy, CV_32F, 0, 1);
+    return cv::norm(dx, cv::NORM_L2SQR) + cv::norm(dy, cv::NORM_L2SQR);
+  };
+  for (size_t i : {10, 30, 45}) {
+    const SynthFrame frame = blurred.Render(i), sharp_frame = sharp.Render(i);
+    // The image moves about 6 pixels per frame here (fx = 131): blurred by
+    // min(8, 6) pixels along the motion.
+    EXPECT_LT(gradient_energy(frame.color), 0.8 * gradient_energy(sharp_frame.color)) << i;
+    EXPECT_EQ(cv::norm(frame.color, explicitly_blurred.Render(i).color, cv::NORM_INF), 0.0) << i;
+    // Blur does not touch depth (noisy by default) or the ground truth.
+    EXPECT_EQ(cv::norm(frame.depth, sharp_frame.depth, cv::NORM_INF), 0.0) << i;
+    EXPECT_EQ(frame.T_world_cam.translation, sharp_frame.T_world_cam.translation);
+  }
+  // Zero blur renders the plain view of the frame's pose.
+  const SynthFrame frame = sharp.Render(30);
+  const synth::Renderer renderer(sharp.scene(), sharp.camera());
+  EXPECT_EQ(cv::norm(frame.color, synth::ToColor8(renderer.Render(frame.T_world_cam).color),
+                     cv::NORM_INF),
+            0.0);
+}
+
 TEST(RunSynth, ReplacesAnExistingSequenceOnlyWhenDone) {
   testing::TempDir dir;
   SynthOptions o = SmallOptions(dir / "seq");
@@ -314,9 +363,46 @@ TEST_F(SynthTool, WritesASequence) {
   EXPECT_EQ(RgbdSequence::Open(dir_ / "seq").size(), 3u);
 }
 
+TEST_F(SynthTool, ShakeRecordsItsBlurAndNoiseAndHonoursAnExplicitZeroBlur) {
+  for (const auto& [args, blur] : {std::pair<std::string, double>{"", kShakeMotionBlur},
+                                   std::pair<std::string, double>{" --motion-blur 0", 0.0},
+                                   std::pair<std::string, double>{" --motion-blur 2.5", 2.5}}) {
+    const fs::path seq = dir_ / "seq";
+    const auto result =
+        testing::RunTool("synth", "--out " + seq.string() + small_ + " --trajectory shake" + args);
+    ASSERT_EQ(result.exit_code, 0) << args << "\n" << result.output;
+    const auto info = nlohmann::json::parse(ReadFileToString(seq / "synth.json"));
+    EXPECT_EQ(info["options"]["trajectory"], "shake");
+    EXPECT_DOUBLE_EQ(info["options"]["motion_blur"].get<double>(), blur) << args;
+    EXPECT_DOUBLE_EQ(info["options"]["depth_noise"].get<double>(), 1.425e-3) << args;
+    if (blur == 0) {
+      // No blur at all: the frames of the library with motion_blur = 0.
+      SynthOptions o;
+      o.trajectory = synth::TrajectoryKind::kShake;
+      o.width = 96;
+      o.height = 72;
+      o.frames = 3;
+      o.texel_size = 0.01;
+      o.motion_blur = 0;
+      const SyntheticSequence sharp(o);
+      const RgbdSequence written = RgbdSequence::Open(seq);
+      for (size_t i = 0; i < 3; ++i) {
+        EXPECT_EQ(cv::norm(sharp.Render(i).color, written.LoadColor(i), cv::NORM_INF), 0.0) << i;
+      }
+    }
+  }
+  // The other trajectories stay sharp by default.
+  const auto result = testing::RunTool(
+      "synth", "--out " + (dir_ / "seq").string() + small_ + " --trajectory sweep");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  const auto info = nlohmann::json::parse(ReadFileToString(dir_ / "seq" / "synth.json"));
+  EXPECT_DOUBLE_EQ(info["options"]["motion_blur"].get<double>(), 0.0);
+}
+
 TEST_F(SynthTool, BadOptionsExit64AndWriteNothing) {
-  for (const std::string args : {" --frames 0", " --trajectory circle", " --depth-holes 2",
-                                 " --width abc", " --no-such-flag"}) {
+  for (const std::string args :
+       {" --frames 0", " --trajectory circle", " --depth-holes 2", " --width abc",
+        " --no-such-flag", " --motion-blur -1", " --motion-blur abc"}) {
     const auto result =
         testing::RunTool("synth", "--out " + (dir_ / "seq").string() + small_ + args);
     EXPECT_EQ(result.exit_code, 64) << args << "\n" << result.output;
@@ -358,6 +444,7 @@ TEST_F(SynthTool, HelpListsEveryFlagWithItsDefault) {
   EXPECT_NE(result.output.find("300"), std::string::npos);
   EXPECT_NE(result.output.find("0.001425"), std::string::npos);
   EXPECT_NE(result.output.find("loop"), std::string::npos);
+  EXPECT_NE(result.output.find("shake"), std::string::npos);
 }
 
 }  // namespace
