@@ -119,10 +119,19 @@ void BindSummary(CLI::App* command, rrslam::EvalSummaryOptions* options) {
   command
       ->add_option("runs", options->run_dirs,
                    "Run folders, each with ate.json (rrslam-eval ate --json) and optionally "
-                   "run.json or track/run.json (rrslam-track)")
+                   "run.json or track/run.json (rrslam-track); one with skipped.txt is listed "
+                   "as skipped, one with neither as failed (first line of error.txt)")
       ->required();
   command->add_option("--out", options->out, "Write the table to this file instead of stdout");
   command->add_flag("--json", options->json, "JSON instead of a Markdown table");
+  command->add_option("--reference", options->reference,
+                      "CSV of another system's ATE per sequence (header "
+                      "'sequence,ate_rmse_cm,source', e.g. pipelines/orbslam2_ate.csv): adds a "
+                      "column with the figure of each run's sequence, empty where it has none");
+  command
+      ->add_option("--reference-name", options->reference_name,
+                   "Name of that system, the heading of its column (e.g. ORB-SLAM2)")
+      ->capture_default_str();
 }
 
 }  // namespace
