@@ -90,15 +90,15 @@ void View::SetPose(const Rigid3d& T_cam_world) {
   has_pose_ = true;
 }
 
-int FeatureVectorLevelsUp(int vocabulary_levels) {
+int FeatureVectorLevelsUp(int vocabulary_levels, bool small_vocabulary_groups) {
+  if (!small_vocabulary_groups) return 4;
   const int depth = std::max(vocabulary_levels - 4, std::min(2, vocabulary_levels - 1));
   return vocabulary_levels - depth;
 }
 
-void View::ComputeBow(const Vocabulary& vocabulary) {
+void View::ComputeBow(const Vocabulary& vocabulary, int levels_up) {
   if (has_bow_) return;
-  vocabulary.Transform(features_->descriptors, &bow_, &feature_vector_,
-                       FeatureVectorLevelsUp(vocabulary.levels()));
+  vocabulary.Transform(features_->descriptors, &bow_, &feature_vector_, levels_up);
   has_bow_ = true;
 }
 

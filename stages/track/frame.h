@@ -81,7 +81,9 @@ class View {
 
   // Bag of words (computed on demand: only keyframes and BoW searches need it).
   bool has_bow() const { return has_bow_; }
-  void ComputeBow(const Vocabulary& vocabulary);
+  // `levels_up`: the feature vector groups features by their ancestor node
+  // that many levels above the words (FeatureVectorLevelsUp).
+  void ComputeBow(const Vocabulary& vocabulary, int levels_up);
   const BowVector& bow() const { return bow_; }
   const FeatureVector& feature_vector() const { return feature_vector_; }
   // Sets the bag of words computed elsewhere (tests, tools).
@@ -132,11 +134,12 @@ class Frame : public View {
 
 // Levels above the leaves at which a vocabulary of depth L groups the
 // features of a view into its feature vector (the candidate sets of the
-// bag-of-words searches). ORB-SLAM2 groups 4 levels up, at depth L - 4: k^2
-// groups for its L = 6 vocabulary. That is kept for L >= 6; a smaller
-// vocabulary groups at depth min(2, L - 1) instead, so that its searches stay
-// as selective (k^2 groups at L = 4 or 5) rather than falling to k groups at
-// L = 5 and one at L <= 4.
-int FeatureVectorLevelsUp(int vocabulary_levels);
+// bag-of-words searches). ORB-SLAM2 always groups 4 levels up, at depth L - 4:
+// k^2 groups for its L = 6 vocabulary, k groups at L = 5 and the root alone
+// (brute force) at L <= 4. With `small_vocabulary_groups` (a departure from
+// ORB-SLAM2, option --small-vocab-groups), a vocabulary of fewer than 6 levels
+// groups at depth min(2, L - 1) instead, so its searches stay as selective as
+// ORB-SLAM2's (k^2 groups at L = 4 or 5); L >= 6 is unchanged.
+int FeatureVectorLevelsUp(int vocabulary_levels, bool small_vocabulary_groups);
 
 }  // namespace rrslam

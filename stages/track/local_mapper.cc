@@ -61,7 +61,7 @@ LocalMapper::~LocalMapper() {
 }
 
 void LocalMapper::InsertKeyFrame(KeyFrame* keyframe) {
-  keyframe->ComputeBow(vocabulary_);
+  keyframe->ComputeBow(vocabulary_, options_.bow_levels_up);
   for (size_t i = 0; i < keyframe->size(); ++i) {
     MapPoint* point = keyframe->map_point(i);
     if (point == nullptr) continue;
@@ -371,6 +371,23 @@ void LocalMapper::Run() {
     Process(keyframe, true);
     accepting_.store(true);
   }
+}
+
+void LocalMapper::Reset() {
+  const bool running = thread_.joinable();
+  if (running) {
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      queue_.clear();  // Not processed: their map is being discarded.
+    }
+    Stop();
+  }
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    queue_.clear();
+  }
+  recent_points_.clear();
+  if (running) Start();
 }
 
 void LocalMapper::Stop() {

@@ -40,6 +40,7 @@ struct LocalMapperOptions {
   int fusion_neighbours = 10;         // Best covisible keyframes to fuse with (plus 5 of each).
   int culling_min_observers = 3;      // Redundancy: seen by at least this many other keyframes.
   double culling_redundancy = 0.9;    // Fraction of close points that must be redundant.
+  int bow_levels_up = 4;              // Feature-vector grouping (TrackerOptions::bow_levels_up).
   LocalBundleAdjustmentOptions bundle_adjustment;
 };
 
@@ -94,6 +95,10 @@ class LocalMapper {
   void InterruptBundleAdjustment() { abort_ba_.store(true); }
   // Processes what is queued, then stops and joins the thread.
   void Stop();
+  // For a map reset (the caller then clears the map): finishes the keyframe
+  // in progress, drops the queue and the recently created points it watches.
+  // A running thread is restarted. Call without holding the map lock.
+  void Reset();
 
   // Counters; read them after Stop() in realtime mode.
   const LocalMappingCounters& counters() const { return counters_; }

@@ -34,6 +34,19 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
   app.add_option("--extraction-threads", o->extraction_threads,
                  "Threads of the ORB extractor (does not change the result)")
       ->capture_default_str();
+  // Departures from ORB-SLAM2; docs/track.md gives the measurements.
+  app.add_option("--close-tracked", o->close_tracked,
+                 "Keyframe when fewer close points are tracked (ORB-SLAM2: 100)")
+      ->capture_default_str();
+  app.add_flag("--ba-depth-fallback", o->ba_depth_fallback,
+               "Local BA keeps an observation whose depth disagrees as (u, v) (ORB-SLAM2 "
+               "removes it)");
+  app.add_flag("--small-vocab-groups", o->small_vocab_groups,
+               "Vocabularies of < 6 levels group BoW candidates at depth 2 (ORB-SLAM2: 4 "
+               "levels above the words)");
+  app.add_flag("--expand-all-local-keyframes", o->expand_all_local_keyframes,
+               "Local map: neighbours of every observing keyframe (ORB-SLAM2 stops at the "
+               "first parent)");
 }
 
 }  // namespace

@@ -51,6 +51,25 @@ std::vector<MapPoint*> Map::MapPoints() const {
   return out;
 }
 
+void Map::Clear() {
+  for (size_t i = 0; i < map_points_.size(); ++i) {
+    if (!map_point_in_map_[i]) continue;
+    map_points_[i]->MarkBad(nullptr);
+    map_points_[i]->ClearObservations();
+    map_point_in_map_[i] = 0;
+  }
+  for (size_t i = 0; i < keyframes_.size(); ++i) {
+    KeyFrame* kf = keyframes_[i].get();
+    if (kf->bad()) continue;  // Also those created but not yet added.
+    for (size_t k = 0; k < kf->size(); ++k) kf->SetMapPoint(k, nullptr);
+    kf->MarkBad(Rigid3d::Identity());
+    keyframe_in_map_[i] = 0;
+  }
+  num_map_points_ = 0;
+  num_keyframes_ = 0;
+  root_ = nullptr;
+}
+
 void Map::AddObservation(MapPoint* point, KeyFrame* keyframe, uint32_t index) {
   point->AddObservation(keyframe, index);
   keyframe->SetMapPoint(index, point);

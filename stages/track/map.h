@@ -83,6 +83,12 @@ class Map {
   // culled: returns false for it.
   bool CullKeyFrame(KeyFrame* keyframe);
 
+  // Discards the whole map (ORB-SLAM2's reset): every keyframe and map point
+  // in it is marked bad and leaves the map; the next keyframe added becomes
+  // the root. The objects stay allocated (see Ownership), so pointers held
+  // elsewhere stay valid.
+  void Clear();
+
   // The lock of realtime mode (see the file comment).
   std::mutex& mutex() const { return mutex_; }
 

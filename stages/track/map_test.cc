@@ -224,4 +224,23 @@ TEST_F(MapTest, NormalAndScaleDistancesFollowTheObservations) {
 }
 
 }  // namespace
+TEST_F(MapTest, ClearDiscardsEverythingAndTheNextKeyFrameIsTheRoot) {
+  MakeKeyFrames(3);
+  Share(0, 1, 20);
+  Share(1, 2, 20);
+  ASSERT_EQ(map_.num_map_points(), 40u);
+  const std::vector<MapPoint*> points = map_.MapPoints();
+  map_.Clear();
+  EXPECT_EQ(map_.num_keyframes(), 0u);
+  EXPECT_EQ(map_.num_map_points(), 0u);
+  EXPECT_TRUE(map_.KeyFrames().empty());
+  EXPECT_EQ(map_.root(), nullptr);
+  for (KeyFrame* kf : keyframes_) EXPECT_TRUE(kf->bad());
+  for (MapPoint* p : points) EXPECT_TRUE(p->bad());
+  EXPECT_EQ(keyframes_[1]->map_point(0), nullptr);
+  MakeKeyFrames(1);
+  EXPECT_EQ(map_.root(), keyframes_.back());
+  EXPECT_EQ(map_.num_keyframes(), 1u);
+}
+
 }  // namespace rrslam

@@ -1,5 +1,6 @@
 #include "stages/track/matcher.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -43,11 +44,12 @@ bool NearEpipolarLine(const Eigen::Vector2f& x1, const Eigen::Vector2f& x2,
 }  // namespace
 
 int RotationHistogram::Bin(float rotation_deg) {
-  double rot = rotation_deg;
-  while (rot < 0) rot += 360.0;
-  while (rot >= 360.0) rot -= 360.0;
-  int bin = static_cast<int>(std::lround(rot * kBins / 360.0));
-  return bin == kBins ? 0 : bin;
+  float rot = rotation_deg;
+  while (rot < 0) rot += 360.0f;
+  while (rot >= 360.0f) rot -= 360.0f;
+  // ORB-SLAM2: round(rot * factor) with factor = 1 / HISTO_LENGTH, in float.
+  const int bin = static_cast<int>(std::round(rot * (1.0f / 30.0f)));
+  return std::min(bin, kBins - 1);
 }
 
 void RotationHistogram::Add(float angle1_deg, float angle2_deg, int item) {

@@ -5,7 +5,9 @@
 //  - BoW search: keypoints sharing a vocabulary node (FeatureVector) are the
 //    only candidates, with Lowe's ratio test;
 //  - rotation consistency: the orientation change of the matches is binned in
-//    a 30-bin histogram and matches outside the three fullest bins are dropped;
+//    a histogram of 30-degree bins and matches outside the three fullest bins
+//    are dropped (RotationHistogram: what ORB-SLAM2's code does, not what its
+//    HISTO_LENGTH = 30 suggests);
 //  - Hamming thresholds kHammingHigh (100) and kHammingLow (50).
 // All matches are deterministic: candidates are visited in keypoint/node/id order.
 // Thread-safety: const methods; the map objects touched must be locked by the
@@ -27,10 +29,17 @@ namespace rrslam {
 inline constexpr int kHammingHigh = 100;  // ORB-SLAM2's TH_HIGH.
 inline constexpr int kHammingLow = 50;    // ORB-SLAM2's TH_LOW.
 
-// Histogram of the orientation change (degrees) of candidate matches.
+// Histogram of the orientation change (degrees) of candidate matches, binned
+// exactly as ORB-SLAM2's ORBmatcher does it. ORB-SLAM2 declares HISTO_LENGTH =
+// 30 bins but computes the bin as round(rotation * factor) with factor =
+// 1 / HISTO_LENGTH, i.e. round(rotation / 30 deg): only 13 bins are used,
+// 30 degrees wide and centred on multiples of 30 degrees, with bin 0 holding
+// [0, 15) and bin 12 holding [345, 360) (a change near zero falls in one of
+// two bins). Wide bins keep true matches whose orientations are noisy (motion
+// blur); the three-maxima rule then keeps at most three of them.
 class RotationHistogram {
  public:
-  static constexpr int kBins = 30;  // 12 degrees per bin.
+  static constexpr int kBins = 13;  // round([0, 360) / 30) = 0 .. 12.
 
   // Records match `item` whose keypoints have orientations `angle1_deg` and
   // `angle2_deg` (change = angle1 - angle2 modulo 360).

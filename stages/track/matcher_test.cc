@@ -20,25 +20,30 @@ using testing::SmallMotion;
 using testing::TestSensor;
 using testing::ViewOptions;
 
-TEST(FeatureVectorTest, GroupsAsOrbSlam2FromSixLevelsAtDepthTwoBelow) {
-  for (int levels = 6; levels <= 9; ++levels) EXPECT_EQ(FeatureVectorLevelsUp(levels), 4);
-  EXPECT_EQ(FeatureVectorLevelsUp(5), 3);  // Depth 2 (ORB-SLAM2's 4 up: depth 1).
-  EXPECT_EQ(FeatureVectorLevelsUp(4), 2);  // Depth 2 (ORB-SLAM2: the root).
-  EXPECT_EQ(FeatureVectorLevelsUp(3), 1);  // Depth 2.
-  EXPECT_EQ(FeatureVectorLevelsUp(2), 1);  // Depth 1: never the words themselves.
-  EXPECT_EQ(FeatureVectorLevelsUp(1), 1);  // The root.
+TEST(FeatureVectorTest, GroupsFourLevelsUpAsOrbSlam2ByDefault) {
+  for (int levels = 1; levels <= 9; ++levels) EXPECT_EQ(FeatureVectorLevelsUp(levels, false), 4);
 }
 
-TEST(FeatureVectorTest, TwoLevelVocabularyGroupsByFirstLevelNodes) {
-  // With four levels up every feature would share the root's group; the
-  // frame's feature vector must use the ten first-level nodes (ids 1 to 10).
+TEST(FeatureVectorTest, SmallVocabularyGroupsFromSixLevelsAtDepthTwoBelow) {
+  for (int levels = 6; levels <= 9; ++levels) EXPECT_EQ(FeatureVectorLevelsUp(levels, true), 4);
+  EXPECT_EQ(FeatureVectorLevelsUp(5, true), 3);  // Depth 2 (ORB-SLAM2's 4 up: depth 1).
+  EXPECT_EQ(FeatureVectorLevelsUp(4, true), 2);  // Depth 2 (ORB-SLAM2: the root).
+  EXPECT_EQ(FeatureVectorLevelsUp(3, true), 1);  // Depth 2.
+  EXPECT_EQ(FeatureVectorLevelsUp(2, true), 1);  // Depth 1: never the words themselves.
+  EXPECT_EQ(FeatureVectorLevelsUp(1, true), 1);  // The root.
+}
+
+TEST(FeatureVectorTest, SmallVocabularyGroupsOfATwoLevelVocabularyAreFirstLevelNodes) {
+  // With four levels up every feature would share the root's group; with
+  // small-vocabulary groups the frame's feature vector must use the ten
+  // first-level nodes (ids 1 to 10).
   const Vocabulary vocabulary = HundredWordVocabulary();
   const SensorModel sensor = TestSensor();
   std::mt19937 rng(11);
   ViewOptions options;
   options.distractors = 200;
   Frame frame = MakeFrame(sensor, RenderView(sensor, {}, Rigid3d(), rng, options), 0, Rigid3d());
-  frame.ComputeBow(vocabulary);
+  frame.ComputeBow(vocabulary, FeatureVectorLevelsUp(vocabulary.levels(), true));
   const FeatureVector& fv = frame.feature_vector();
   EXPECT_GE(fv.size(), 5u);
   size_t features = 0;
@@ -50,14 +55,28 @@ TEST(FeatureVectorTest, TwoLevelVocabularyGroupsByFirstLevelNodes) {
   EXPECT_EQ(features, frame.size());
 }
 
-TEST(RotationHistogramTest, BinsAreTwelveDegreesCentredOnMultiples) {
+// ORB-SLAM2's binning: round(rotation / 30 deg), 13 bins of 30 degrees.
+TEST(RotationHistogramTest, BinsAreThirtyDegreesCentredOnMultiplesAsOrbSlam2) {
+  EXPECT_EQ(RotationHistogram::kBins, 13);
   EXPECT_EQ(RotationHistogram::Bin(0), 0);
-  EXPECT_EQ(RotationHistogram::Bin(5.9f), 0);
-  EXPECT_EQ(RotationHistogram::Bin(6.1f), 1);
-  EXPECT_EQ(RotationHistogram::Bin(12), 1);
-  EXPECT_EQ(RotationHistogram::Bin(-12), 29);
-  EXPECT_EQ(RotationHistogram::Bin(359), 0);
-  EXPECT_EQ(RotationHistogram::Bin(180), 15);
+  EXPECT_EQ(RotationHistogram::Bin(14.9f), 0);
+  EXPECT_EQ(RotationHistogram::Bin(15.1f), 1);
+  EXPECT_EQ(RotationHistogram::Bin(20), 1);
+  EXPECT_EQ(RotationHistogram::Bin(40), 1);
+  EXPECT_EQ(RotationHistogram::Bin(-12), 12);  // 348 deg.
+  EXPECT_EQ(RotationHistogram::Bin(359.9f), 12);
+  EXPECT_EQ(RotationHistogram::Bin(344.9f), 11);
+  EXPECT_EQ(RotationHistogram::Bin(180), 6);
+}
+
+// Orientation noise of +-24 degrees (blur) keeps every true match: 66 .. 114
+// deg fall in three 30-degree bins (12-degree bins would spread them over five
+// and drop two of them).
+TEST(RotationHistogramTest, KeepsNoisyOrientationsOfOneRotation) {
+  RotationHistogram h;
+  for (int i = 0; i < 25; ++i) h.Add(66.0f + 2 * i, 0, i);
+  h.Add(270, 0, 25);  // Inconsistent: a fourth bin.
+  EXPECT_EQ(h.Inconsistent(), (std::vector<int>{25}));
 }
 
 TEST(RotationHistogramTest, KeepsTheThreeFullestBins) {

@@ -33,6 +33,12 @@ class AbortCallback final : public ceres::IterationCallback {
 
 }  // namespace
 
+ceres::CallbackReturnType SuccessfulStepLimit::operator()(const ceres::IterationSummary& summary) {
+  // Iteration 0 is the initial evaluation, not a step.
+  if (summary.iteration > 0 && summary.step_is_successful) ++successful_;
+  return successful_ >= limit_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+}
+
 ceres::Manifold* PoseManifold() {
   static PoseManifoldType manifold;
   return &manifold;
@@ -82,7 +88,8 @@ int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
   ceres::HuberLoss loss_stereo(std::sqrt(kChi2ThreeDof));
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options.iterations_per_round;
+  solver_options.max_num_iterations =
+      SuccessfulStepLimit::MaxIterationsFor(options.iterations_per_round);
   solver_options.num_threads = 1;
   solver_options.logging_type = ceres::SILENT;
 
@@ -106,8 +113,11 @@ int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
       ++residuals;
     }
     if (residuals == 0) break;
+    SuccessfulStepLimit step_limit(options.iterations_per_round);
+    ceres::Solver::Options round_options = solver_options;
+    round_options.callbacks.push_back(&step_limit);
     ceres::Solver::Summary summary;
-    ceres::Solve(solver_options, &problem, &summary);
+    ceres::Solve(round_options, &problem, &summary);
 
     // Reclassify every match (also those left out of this round) at the new pose.
     bad = 0;
@@ -120,6 +130,8 @@ int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
       frame->outlier[m.index] = is_outlier ? 1 : 0;
       if (is_outlier) ++bad;
     }
+    // ORB-SLAM2 stops after the first round when the frame has under 10 matches.
+    if (matches.size() < 10) break;
   }
   frame->SetPose(FromPoseBlock(pose));
   return static_cast<int>(matches.size()) - bad;
@@ -266,9 +278,11 @@ void LocalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
     ceres::Solver::Options options;
     options.linear_solver_type = ceres::DENSE_SCHUR;
     options.linear_solver_ordering.reset(ordering);
-    options.max_num_iterations = iterations;
+    options.max_num_iterations = SuccessfulStepLimit::MaxIterationsFor(iterations);
     options.num_threads = 1;
     options.logging_type = ceres::SILENT;
+    SuccessfulStepLimit step_limit(iterations);
+    options.callbacks.push_back(&step_limit);
     if (abort != nullptr) options.callbacks.push_back(&abort_callback);
     ceres::Solver::Summary summary;
     ceres::Solve(options, &problem, &summary);
@@ -290,7 +304,7 @@ void LocalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
         o.outlier = chi2 > kChi2TwoDof;
       } else if (chi2 <= kChi2ThreeDof) {
         o.outlier = false;
-      } else if (chi2_uv <= kChi2TwoDof) {
+      } else if (options_.depth_fallback && chi2_uv <= kChi2TwoDof) {
         o.outlier = false;
         o.depth_ignored = true;
       } else {

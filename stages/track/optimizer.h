@@ -8,6 +8,8 @@
 // Both run Ceres on one thread, so results are bit-identical run to run.
 #pragma once
 
+#include <ceres/iteration_callback.h>
+
 #include <atomic>
 #include <cstdint>
 #include <unordered_map>
@@ -24,10 +26,32 @@ namespace rrslam {
 inline constexpr double kChi2TwoDof = 5.991;
 inline constexpr double kChi2ThreeDof = 7.815;
 
+// Iteration counts below are counted as g2o counts them: g2o's optimize(n)
+// makes n Levenberg-Marquardt iterations, each of which retries a rejected
+// step (with a larger damping) up to 10 times, while Ceres' max_num_iterations
+// also counts the rejected steps. So a solve here stops after n *successful*
+// steps, after n + 10 n iterations in all, or when Ceres' convergence
+// tolerances are met (see SuccessfulStepLimit).
 struct PoseOptimizationOptions {
   int rounds = 4;                 // Outlier classification rounds (ORB-SLAM2: 4).
-  int iterations_per_round = 10;  // Levenberg-Marquardt iterations per round.
+  int iterations_per_round = 10;  // Successful LM steps per round (ORB-SLAM2: optimize(10)).
   int robust_rounds = 3;          // Rounds that use the Huber loss (the last runs without).
+};
+
+// A Ceres iteration callback that ends the solve after `limit` successful
+// steps (g2o's iteration count; see above). Add it to the solver's callbacks
+// and set max_num_iterations to MaxIterationsFor(limit).
+class SuccessfulStepLimit final : public ceres::IterationCallback {
+ public:
+  explicit SuccessfulStepLimit(int limit) : limit_(limit) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override;
+  int successful_steps() const { return successful_; }
+  // Iterations allowed in all: `limit` steps with up to 10 rejections each.
+  static int MaxIterationsFor(int limit) { return 11 * limit; }
+
+ private:
+  int limit_;
+  int successful_ = 0;
 };
 
 // Refines frame->T_cam_world() from the frame's map-point matches (points
@@ -40,8 +64,13 @@ int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
                       const PoseOptimizationOptions& options = {});
 
 struct LocalBundleAdjustmentOptions {
-  int first_iterations = 5;    // With Huber loss, on all observations.
-  int second_iterations = 10;  // Without loss, on the inliers of the first pass.
+  int first_iterations = 5;    // Successful steps with Huber loss, on all observations.
+  int second_iterations = 10;  // Successful steps without loss, on the first pass's inliers.
+  // Departure from ORB-SLAM2 (option --ba-depth-fallback): an observation with
+  // depth whose (u, v, u_R) error exceeds the three-dof bound but whose (u, v)
+  // error is within the two-dof bound is kept as a (u, v) observation instead
+  // of being an outlier. ORB-SLAM2 (false) removes it.
+  bool depth_fallback = false;
 };
 
 struct LocalBundleAdjustmentStats {
@@ -66,10 +95,10 @@ struct LocalBundleAdjustmentStats {
 //   Apply (map locked): writes poses and points back and erases the
 //     observations that remain outliers (error above the chi-square bound or
 //     point behind the camera). Objects culled meanwhile are skipped.
-// An observation with depth whose (u, v, u_R) error exceeds the three-dof
-// bound but whose (u, v) error is within the two-dof bound is not an outlier:
-// its depth is (a depth edge, a reflection), so the second pass and later
-// classifications use its (u, v) only.
+// With options.depth_fallback, an observation with depth whose (u, v, u_R)
+// error exceeds the three-dof bound but whose (u, v) error is within the
+// two-dof bound is not an outlier: its depth is (a depth edge, a reflection),
+// so the second pass and later classifications use its (u, v) only.
 class LocalBundleAdjuster {
  public:
   LocalBundleAdjuster(const SensorModel& sensor, const LocalBundleAdjustmentOptions& options = {})

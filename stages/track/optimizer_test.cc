@@ -207,6 +207,7 @@ class LocalBundleAdjustmentTest : public ::testing::Test {
       testing::SyntheticView view = RenderView(sensor_, scene_, truth_[k], rng_, options);
       // A third of the keypoints without depth.
       for (size_t i = 0; i < view.keypoints.size(); i += 3) view.keypoints[i].depth = 0;
+      AdjustView(k, &view);
       KeyFrame* kf = map_.CreateKeyFrame(MakeFrame(sensor_, view, k, truth_[k]));
       map_.AddKeyFrame(kf);
       keyframes_.push_back(kf);
@@ -224,6 +225,9 @@ class LocalBundleAdjustmentTest : public ::testing::Test {
       if (p != nullptr) p->UpdateNormalAndDepth(sensor_.pyramid);
     }
   }
+
+  // Lets a test change keyframe k's view before the map is made.
+  virtual void AdjustView(int /*k*/, testing::SyntheticView* /*view*/) {}
 
   std::mt19937 rng_{31};
   SensorModel sensor_ = TestSensor();
@@ -290,6 +294,40 @@ TEST_F(LocalBundleAdjustmentTest, RemovesOutlierObservations) {
   }
 }
 
+// Keyframe 3 measures 10 finest-octave keypoints (with depth) 50% too deep:
+// their (u, v) is right, their u_R is off by 3 to 7 px.
+class WrongDepthTest : public LocalBundleAdjustmentTest {
+ protected:
+  void AdjustView(int k, testing::SyntheticView* view) override {
+    if (k != 3) return;
+    for (size_t i = 0; i < view->keypoints.size() && wrong_.size() < 10; ++i) {
+      if (view->keypoints[i].depth <= 0 || view->keypoints[i].octave != 0) continue;
+      view->keypoints[i].depth *= 1.5f;
+      wrong_.push_back(static_cast<uint32_t>(i));
+    }
+  }
+  std::vector<uint32_t> wrong_;
+};
+
+TEST_F(WrongDepthTest, OrbSlam2RemovesObservationsWithWrongDepth) {
+  ASSERT_EQ(wrong_.size(), 10u);
+  LocalBundleAdjuster adjuster(sensor_);  // depth_fallback = false: ORB-SLAM2.
+  adjuster.Collect(keyframes_.back(), map_);
+  adjuster.Solve();
+  adjuster.Apply(&map_);
+  for (uint32_t i : wrong_) EXPECT_EQ(keyframes_[3]->map_point(i), nullptr) << i;
+}
+
+TEST_F(WrongDepthTest, DepthFallbackKeepsThemAsPixelObservations) {
+  LocalBundleAdjustmentOptions options;
+  options.depth_fallback = true;
+  LocalBundleAdjuster adjuster(sensor_, options);
+  adjuster.Collect(keyframes_.back(), map_);
+  adjuster.Solve();
+  adjuster.Apply(&map_);
+  for (uint32_t i : wrong_) EXPECT_NE(keyframes_[3]->map_point(i), nullptr) << i;
+}
+
 TEST_F(LocalBundleAdjustmentTest, AbortStopsAfterTheFirstPass) {
   std::atomic<bool> abort{true};
   LocalBundleAdjuster adjuster(sensor_);
@@ -299,4 +337,26 @@ TEST_F(LocalBundleAdjustmentTest, AbortStopsAfterTheFirstPass) {
 }
 
 }  // namespace
+// g2o's optimize(n) makes n successful steps; Ceres' iteration count also
+// counts rejected ones. The limit counts only successful steps, so rejected
+// steps do not end a solve early.
+TEST(SuccessfulStepLimitTest, CountsOnlySuccessfulStepsAfterIterationZero) {
+  SuccessfulStepLimit limit(3);
+  ceres::IterationSummary s;
+  s.iteration = 0;
+  s.step_is_successful = true;  // The initial evaluation is not a step.
+  EXPECT_EQ(limit(s), ceres::SOLVER_CONTINUE);
+  const bool steps[] = {false, true, false, false, true};
+  for (int i = 0; i < 5; ++i) {
+    s.iteration = i + 1;
+    s.step_is_successful = steps[i];
+    EXPECT_EQ(limit(s), ceres::SOLVER_CONTINUE) << "iteration " << s.iteration;
+  }
+  EXPECT_EQ(limit.successful_steps(), 2);
+  s.iteration = 6;
+  s.step_is_successful = true;
+  EXPECT_EQ(limit(s), ceres::SOLVER_TERMINATE_SUCCESSFULLY);
+  EXPECT_EQ(SuccessfulStepLimit::MaxIterationsFor(10), 110);
+}
+
 }  // namespace rrslam

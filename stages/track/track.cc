@@ -206,6 +206,9 @@ bool TrackOptions::Check(std::string* why) const {
   if (max_frames < 0 || max_frames == 1) {
     return fail("--max-frames = " + std::to_string(max_frames) + "; must be 0 (all) or >= 2");
   }
+  if (close_tracked < 0) {
+    return fail("--close-tracked = " + std::to_string(close_tracked) + "; must be >= 0");
+  }
   if (extraction_threads < 1 || extraction_threads > 16) {
     return fail("--extraction-threads = " + std::to_string(extraction_threads) +
                 "; must be in [1, 16]");
@@ -223,7 +226,11 @@ nlohmann::json TrackOptions::ToJson() const {
           {"mode", mode},
           {"max_frames", max_frames},
           {"pace", pace},
-          {"extraction_threads", extraction_threads}};
+          {"extraction_threads", extraction_threads},
+          {"close_tracked", close_tracked},
+          {"ba_depth_fallback", ba_depth_fallback},
+          {"small_vocab_groups", small_vocab_groups},
+          {"expand_all_local_keyframes", expand_all_local_keyframes}};
 }
 
 TrackSummary RunTrack(const TrackOptions& options) {
@@ -282,9 +289,16 @@ TrackSummary RunTrack(const TrackOptions& options) {
   // The SLAM objects.
   Map map;
   KeyFrameDatabase database(vocabulary);
+  const int bow_levels_up = FeatureVectorLevelsUp(vocabulary.levels(), options.small_vocab_groups);
   TrackerOptions tracker_options;
   tracker_options.max_keyframe_gap = std::max(1, static_cast<int>(std::lround(settings.fps)));
-  LocalMapper mapper(sensor, vocabulary, &map, &database, LocalMapperOptions{});
+  tracker_options.close_tracked = options.close_tracked;
+  tracker_options.expand_all_local_keyframes = options.expand_all_local_keyframes;
+  tracker_options.bow_levels_up = bow_levels_up;
+  LocalMapperOptions mapper_options;
+  mapper_options.bow_levels_up = bow_levels_up;
+  mapper_options.bundle_adjustment.depth_fallback = options.ba_depth_fallback;
+  LocalMapper mapper(sensor, vocabulary, &map, &database, mapper_options);
   Tracker tracker(sensor, vocabulary, &map, &mapper, tracker_options);
   if (realtime) mapper.Start();
 
@@ -333,6 +347,17 @@ TrackSummary RunTrack(const TrackOptions& options) {
                 BuildFrameFeatures(sensor, std::move(keypoints), std::move(descriptors)));
     bool new_keyframe = false;
     tracker.Track(std::move(frame), &new_keyframe);
+    if (tracker.reset_requested()) {
+      // ORB-SLAM2's System::Reset: the mapper drops its work, the map and the
+      // keyframe database are emptied, and the next frame initializes anew.
+      spdlog::warn("track: frame {} lost with {} keyframes in the map; resetting the map", k,
+                   map.num_keyframes());
+      mapper.Reset();
+      std::lock_guard<std::mutex> lock(map.mutex());
+      map.Clear();
+      database.Clear();
+      tracker.Reset();
+    }
     tracking_ms.push_back(MillisecondsSince(start));
     if (!realtime && new_keyframe) mapper.ProcessQueued();
     progress.Advance();
@@ -343,9 +368,15 @@ TrackSummary RunTrack(const TrackOptions& options) {
   const double loop_s = std::chrono::duration<double>(Clock::now() - loop_start).count();
 
   if (tracker.state() == Tracker::State::kNotInitialized) {
-    throw AlgorithmError(options.sequence.string() + ": tracking never initialized: no frame has " +
-                         std::to_string(tracker_options.min_initial_points) +
-                         " keypoints with depth (is the depth all zero?)");
+    throw AlgorithmError(
+        options.sequence.string() +
+        (tracker.resets() > 0
+             ? ": tracking was lost soon after initialization and never initialized again (" +
+                   std::to_string(tracker.resets()) + " resets)"
+             : ": tracking never initialized: no frame has more than " +
+                   std::to_string(tracker_options.min_initial_keypoints) + " keypoints with " +
+                   std::to_string(tracker_options.min_initial_points) +
+                   " of them with depth (is the depth all zero?)"));
   }
 
   // Outputs.
@@ -387,7 +418,8 @@ TrackSummary RunTrack(const TrackOptions& options) {
                       {"map_points", summary.map_points},
                       {"keyframes_created", map.num_created_keyframes()},
                       {"keyframes_culled", counters.culled_keyframes},
-                      {"resumed", tracker.resumed()}};
+                      {"resumed", tracker.resumed()},
+                      {"resets", tracker.resets()}};
   report["lost_timestamps"] = summary.lost_timestamps;
   report["local_mapping"] = {{"keyframes_processed", counters.keyframes},
                              {"triangulated_points", counters.triangulated_points},

@@ -45,6 +45,21 @@ struct TrackOptions {
   // Does not change the result.
   int extraction_threads = 1;
 
+  // Departures from ORB-SLAM2 (docs/track.md, "Departures from ORB-SLAM2",
+  // has the measurements behind each default). Defaults are ORB-SLAM2's.
+  // A keyframe is needed when fewer than this many close points are tracked
+  // (and more than 70 could be created). ORB-SLAM2: 100.
+  int close_tracked = 100;
+  // Local BA keeps an observation whose depth disagrees but whose (u, v)
+  // agrees as a (u, v) observation (ORB-SLAM2 removes it).
+  bool ba_depth_fallback = false;
+  // Vocabularies of fewer than 6 levels group BoW search candidates at depth
+  // min(2, L - 1) (ORB-SLAM2: 4 levels above the words).
+  bool small_vocab_groups = false;
+  // Local keyframes: neighbours of every keyframe observing the frame's
+  // points (ORB-SLAM2 stops at the first parent it adds).
+  bool expand_all_local_keyframes = false;
+
   // Names the first violated constraint ("--mode = x; must be batch or realtime").
   bool Check(std::string* why) const;
   // The options recorded in run.json.

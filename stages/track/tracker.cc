@@ -30,8 +30,7 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
     const bool was_lost = state_ == State::kLost;
     if (!was_lost) {
       ReplaceInLastFrame();
-      const bool just_resumed = has_resumed_ && current_.id() < resumed_frame_id_ + 2;
-      if (velocity_ && !just_resumed) {
+      if (velocity_ && !RecentlyRelocalized(2)) {
         ok = TrackWithMotionModel();
       }
       if (!ok) ok = TrackReferenceKeyFrame(reference_keyframe_, last_frame_.T_cam_world());
@@ -60,6 +59,11 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
       }
     } else {
       velocity_.reset();
+      // Lost soon after initialization: start again (ORB-SLAM2).
+      if (options_.reset_max_keyframes >= 0 &&
+          map_->num_keyframes() <= static_cast<size_t>(options_.reset_max_keyframes)) {
+        reset_requested_ = true;
+      }
     }
   }
   if (current_.reference_keyframe == nullptr) current_.reference_keyframe = reference_keyframe_;
@@ -79,8 +83,25 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
   return ok;
 }
 
+void Tracker::Reset() {
+  state_ = State::kNotInitialized;
+  velocity_.reset();
+  reference_keyframe_ = nullptr;
+  last_keyframe_ = nullptr;
+  local_keyframes_.clear();
+  local_points_.clear();
+  last_frame_tracked_ = false;
+  for (TrackedFrame& r : records_) {
+    r.tracked = false;
+    r.reference = nullptr;
+  }
+  reset_requested_ = false;
+  ++resets_;
+}
+
 bool Tracker::Initialize() {
   const FrameFeatures& f = current_.features();
+  if (f.size() <= static_cast<size_t>(options_.min_initial_keypoints)) return false;
   int with_depth = 0;
   for (size_t i = 0; i < f.size(); ++i) with_depth += f.HasDepth(i);
   if (with_depth < options_.min_initial_points) return false;
@@ -107,6 +128,7 @@ bool Tracker::Initialize() {
   local_keyframes_ = {keyframe};
   local_points_ = map_->MapPoints();
   velocity_.reset();
+  relocalized_frame_id_ = current_.id();
   state_ = State::kOk;
   return true;
 }
@@ -157,8 +179,9 @@ bool Tracker::TrackWithMotionModel() {
 
 bool Tracker::TrackReferenceKeyFrame(KeyFrame* keyframe, const Rigid3d& initial_T_cam_world) {
   if (keyframe == nullptr) return false;
-  current_.ComputeBow(vocabulary_);
-  keyframe->ComputeBow(vocabulary_);  // A keyframe still queued for mapping has none yet.
+  current_.ComputeBow(vocabulary_, options_.bow_levels_up);
+  keyframe->ComputeBow(
+      vocabulary_, options_.bow_levels_up);  // A keyframe still queued for mapping has none yet.
   const Matcher matcher(sensor_, 0.7, true);
   std::vector<MapPoint*> matches;
   const int n = matcher.SearchByBow(*keyframe, current_, &matches);
@@ -184,8 +207,7 @@ bool Tracker::Resume() {
     std::fill(current_.map_points.begin(), current_.map_points.end(), nullptr);
     if (TrackReferenceKeyFrame(kf, kf->T_cam_world())) {
       reference_keyframe_ = kf;
-      resumed_frame_id_ = current_.id();
-      has_resumed_ = true;
+      relocalized_frame_id_ = current_.id();
       return true;
     }
   }
@@ -209,9 +231,10 @@ bool Tracker::TrackLocalMap() {
     point->IncreaseFound();
     if (point->num_observations() > 0) ++matches_inliers_;
   }
-  const bool recently_resumed =
-      has_resumed_ && current_.id() < resumed_frame_id_ + options_.max_keyframe_gap;
-  if (recently_resumed && matches_inliers_ < options_.min_local_map_inliers_resumed) return false;
+  if (RecentlyRelocalized(options_.max_keyframe_gap) &&
+      matches_inliers_ < options_.min_local_map_inliers_resumed) {
+    return false;
+  }
   return matches_inliers_ >= options_.min_local_map_inliers;
 }
 
@@ -231,23 +254,28 @@ void Tracker::UpdateLocalKeyFrames() {
     }
   }
   if (votes.empty()) return;
-  std::vector<std::pair<KeyFrame*, int>> ranked;
-  ranked.reserve(votes.size());
-  for (const auto& [id, v] : votes) ranked.push_back(v);
-  std::stable_sort(ranked.begin(), ranked.end(),
-                   [](const auto& a, const auto& b) { return a.second > b.second; });
 
+  // Every voter is a local keyframe, in id order (ORB-SLAM2 walks a map keyed
+  // by keyframe pointer, i.e. allocation order); the reference keyframe is
+  // the first with the most votes.
   local_keyframes_.clear();
-  for (const auto& [kf, count] : ranked) {
+  KeyFrame* best = nullptr;
+  int best_votes = 0;
+  for (const auto& [id, vote] : votes) {
+    KeyFrame* kf = vote.first;
     if (kf->bad()) continue;
+    if (vote.second > best_votes) {
+      best_votes = vote.second;
+      best = kf;
+    }
     local_keyframes_.push_back(kf);
     keyframe_mark_[kf->id()] = stamp;
   }
   if (local_keyframes_.empty()) return;
-  KeyFrame* best = local_keyframes_.front();
 
   // Neighbours of the voters: one best covisible, one child and the parent of
-  // each, up to 80 keyframes.
+  // each, up to 80 keyframes. ORB-SLAM2's loop ends at the first parent it
+  // adds; expand_all_local_keyframes goes on through every voter.
   auto try_add = [&](KeyFrame* kf) {
     if (kf == nullptr || kf->bad() || keyframe_mark_[kf->id()] == stamp) return false;
     keyframe_mark_[kf->id()] = stamp;
@@ -263,7 +291,7 @@ void Tracker::UpdateLocalKeyFrames() {
     for (KeyFrame* c : kf->children()) {
       if (try_add(c)) break;
     }
-    try_add(kf->parent());
+    if (try_add(kf->parent()) && !options_.expand_all_local_keyframes) break;
   }
   reference_keyframe_ = best;
   current_.reference_keyframe = best;
@@ -306,17 +334,18 @@ int Tracker::SearchLocalPoints() {
     }
   }
   if (candidates.empty()) return 0;
-  const bool just_resumed = has_resumed_ && current_.id() < resumed_frame_id_ + 2;
   const Matcher matcher(sensor_, 0.8, false);
-  return matcher.SearchByProjection(&current_, candidates, just_resumed ? 5.0 : 1.0);
+  return matcher.SearchByProjection(&current_, candidates,
+                                    RecentlyRelocalized(2)
+                                        ? options_.local_map_search_radius_relocalized
+                                        : options_.local_map_search_radius);
 }
 
 bool Tracker::NeedNewKeyFrame() const {
   const size_t keyframes = map_->num_keyframes();
   const uint64_t id = current_.id();
   const int max_gap = options_.max_keyframe_gap;
-  if (has_resumed_ && id < resumed_frame_id_ + max_gap &&
-      keyframes > static_cast<size_t>(max_gap)) {
+  if (RecentlyRelocalized(max_gap) && keyframes > static_cast<size_t>(max_gap)) {
     return false;
   }
   const int min_observations = keyframes <= 2 ? 2 : 3;

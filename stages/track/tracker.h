@@ -28,28 +28,53 @@
 
 namespace rrslam {
 
+// Defaults are ORB-SLAM2's RGB-D values. Fields marked "departure" select a
+// behaviour of rrslam's own; docs/track.md ("Departures from ORB-SLAM2") has
+// the measurements that decide their defaults.
 struct TrackerOptions {
-  // Initialization: keypoints with depth needed in the first frame.
-  int min_initial_points = 200;
-  // Motion model search window (pixels at level 0; doubled on a retry).
-  double motion_search_radius = 7.0;
-  int min_motion_matches = 20;             // Projection matches needed before pose optimization.
-  int min_bow_matches = 15;                // BoW matches needed to track the reference keyframe.
-  int min_pose_inliers = 10;               // Map inliers needed after either pose optimization.
-  int min_local_map_inliers = 30;          // After local-map tracking.
-  int min_local_map_inliers_resumed = 50;  // ... within max_keyframe_gap frames of a resume.
+  // Initialization: the first frame with more than this many keypoints
+  // (ORB-SLAM2: N > 500); its keypoints with depth become map points. A guard
+  // of rrslam's: at least min_initial_points of them must have depth (ORB-SLAM2
+  // would make a map without points, lose the next frame and reset, forever,
+  // on a sequence without depth).
+  int min_initial_keypoints = 500;
+  int min_initial_points = 50;
+  // Motion-model search window, pixels at level 0 times the scale of the last
+  // frame's keypoint; doubled on the retry when fewer than min_motion_matches
+  // are found. ORB-SLAM2 uses 15 for RGB-D (7 is its stereo value).
+  double motion_search_radius = 15.0;
+  // Local-map search window factor (ORB-SLAM2's th for RGB-D: 3; its
+  // monocular value is 1), and within two frames of a relocalization (5).
+  double local_map_search_radius = 3.0;
+  double local_map_search_radius_relocalized = 5.0;
+  int min_motion_matches = 20;     // Projection matches needed before pose optimization.
+  int min_bow_matches = 15;        // BoW matches needed to track the reference keyframe.
+  int min_pose_inliers = 10;       // Map inliers needed after either pose optimization.
+  int min_local_map_inliers = 30;  // After local-map tracking.
+  int min_local_map_inliers_resumed =
+      50;  // ... within max_keyframe_gap frames of a relocalization.
   // Keyframe decision (ORB-SLAM2): at most this many frames without a keyframe
   // (the camera frame rate), ...
   int max_keyframe_gap = 30;
   // ... and a keyframe is needed when fewer than `close_tracked` close points
   // are tracked while more than `close_untracked` could be created.
-  // ORB-SLAM2 uses 100; 300 (denser keyframes) measured 1.2 cm instead of
-  // 2.8 cm ATE on a 600-frame synthetic room loop and 4.2 instead of 4.4 cm on
-  // 7scenes-kitchen (bench/results/track-*.txt, docs/track.md).
-  int close_tracked = 300;
+  // ORB-SLAM2: 100. Departure: 300 (denser keyframes).
+  int close_tracked = 100;
   int close_untracked = 70;
   double reference_ratio = 0.75;  // Inliers / reference keyframe's tracked points.
   int new_keyframe_points = 100;  // Close-depth points a new keyframe gets at least.
+  // Local keyframes: ORB-SLAM2 adds a best covisible keyframe, a child and the
+  // parent of each keyframe observing the frame's points, in id order, but its
+  // loop ends at the first parent added (a quirk of its code). Departure
+  // (true): add the neighbours of every observing keyframe.
+  bool expand_all_local_keyframes = false;
+  // Vocabulary levels above the words whose nodes group features for BoW
+  // search (ORB-SLAM2: 4; see FeatureVectorLevelsUp).
+  int bow_levels_up = 4;
+  // Lost with at most this many keyframes in the map: the map is discarded
+  // and tracking initializes again (ORB-SLAM2's reset; the caller does it when
+  // reset_requested() is true). Negative: never.
+  int reset_max_keyframes = 5;
 };
 
 // Pose of a frame as recorded for the trajectory: relative to its reference
@@ -80,6 +105,14 @@ class Tracker {
   const Frame& last_frame() const { return last_frame_; }
   // Frames that resumed tracking after being lost.
   size_t resumed() const { return resumed_; }
+  // True after a frame was lost with at most reset_max_keyframes keyframes in
+  // the map. The caller then clears the mapper, the map and the keyframe
+  // database and calls Reset() (ORB-SLAM2's System::Reset).
+  bool reset_requested() const { return reset_requested_; }
+  // Forgets the map: the next frame initializes a new one. Frames tracked
+  // before are marked lost (their poses referred to the discarded map).
+  void Reset();
+  size_t resets() const { return resets_; }
 
  private:
   bool Initialize();
@@ -109,9 +142,15 @@ class Tracker {
   KeyFrame* reference_keyframe_ = nullptr;
   KeyFrame* last_keyframe_ = nullptr;
   uint64_t last_keyframe_frame_id_ = 0;
-  uint64_t resumed_frame_id_ = 0;
-  bool has_resumed_ = false;
+  // ORB-SLAM2's mnLastRelocFrameId: the frame of the last relocalization, or
+  // of the initialization (which ORB-SLAM2 treats alike: frame 0).
+  uint64_t relocalized_frame_id_ = 0;
+  bool RecentlyRelocalized(uint64_t frames) const {
+    return current_.id() < relocalized_frame_id_ + frames;
+  }
   size_t resumed_ = 0;
+  bool reset_requested_ = false;
+  size_t resets_ = 0;
   int matches_inliers_ = 0;
 
   std::vector<KeyFrame*> local_keyframes_;
