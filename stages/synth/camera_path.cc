@@ -127,20 +127,22 @@ Rigid3d CameraPath::T_world_cam(double t) const {
       // exceed rate / (2 pi frequency), so the rates bind at nearly every
       // duration and the speeds do not depend on it.
       // The main term is an elliptic wobble of yaw and pitch (same
-      // frequency, a quarter cycle apart), whose rate vector keeps a nearly
-      // constant length (76 to 85 deg/s); the other terms, with at most
-      // 68 deg/s together, make the motion irregular. The angle between
-      // frames at 30 fps thus stays within about 1.5 to 4.4 deg (median
-      // 2.8 deg, over 95% of frames within 2 to 4 deg; checked for 2 to 6000
-      // frames). Amplitudes add up to at most 40 deg of yaw, 18 deg of pitch
-      // and 9 deg of roll.
-      const double yaw = Swing(s, T, 22 * kDeg, 0.11, 14 * kDeg, 0.3) +  // Slow drift.
-                         Swing(s, T, 16 * kDeg, 0.9, 85 * kDeg, 0.0) +   // Main wobble.
-                         Swing(s, T, 2 * kDeg, 1.37, 16 * kDeg, 1.1);
+      // frequency, a quarter cycle apart) at 85 and 76 deg/s; a hand's
+      // tremor adds 25 deg/s of yaw and pitch at about 5 Hz (10 deg/s of roll
+      // at 4 Hz), whose jerk a constant-velocity prediction cannot follow:
+      // it misses the next frame's rotation by 0.86 deg in the median (8 px
+      // at 525 px focal length) and 1.4 deg at the 90th percentile. The angle
+      // between frames at 30 fps stays within about 1.3 to 4.4 deg (median
+      // 2.9 deg, 88% of frames within 2 to 4 deg, for 600 frames).
+      // Amplitudes add up to at most 40 deg of yaw, 18 deg of pitch and 9 deg
+      // of roll.
+      const double yaw = Swing(s, T, 22 * kDeg, 0.11, 14 * kDeg, 0.3) +          // Slow drift.
+                         Swing(s, T, 16 * kDeg, 0.9, 85 * kDeg, 0.0) +           // Main wobble.
+                         Swing(s, T, 2 * kDeg, 4.7, 25 * kDeg, 1.1);             // Tremor.
       const double pitch = Swing(s, T, 16 * kDeg, 0.9, 76 * kDeg, 0.5 * M_PI) +  // Main wobble.
-                           Swing(s, T, 2 * kDeg, 1.37, 16 * kDeg, 1.1 - 0.5 * M_PI);
+                           Swing(s, T, 2 * kDeg, 5.3, 25 * kDeg, 1.1 - 0.5 * M_PI);
       const double roll_shake =
-          Swing(s, T, 8 * kDeg, 0.67, 28 * kDeg, 2.5) + Swing(s, T, 1 * kDeg, 1.93, 10 * kDeg, 0.6);
+          Swing(s, T, 8 * kDeg, 0.67, 24 * kDeg, 2.5) + Swing(s, T, 1 * kDeg, 3.9, 10 * kDeg, 0.6);
       // Hand tremor of the centre: at most 2.1 cm per axis (3.4 cm in all),
       // at most 0.15 m/s.
       const Eigen::Vector3d tremor(

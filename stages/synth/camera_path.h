@@ -41,11 +41,12 @@ enum class TrajectoryKind {
   // within 4 cm of (0.6, 0, 1.35) m (hand tremor) and looks east (+x) at the
   // table, the screen, the cabinet and the column, 8 deg down, while it
   // wobbles in yaw (within +-40 deg), pitch (+-18 deg) and roll (+-9 deg):
-  // smooth sums of sinusoids of unrelated frequencies per axis, dominated by
-  // an elliptic wobble of yaw and pitch at about 0.9 Hz. Angular speed: median
-  // 85 deg/s, over 95% of the time within 60 to 120 deg/s, at most 135 deg/s
-  // (at 30 fps: median 2.8 degrees between frames, 2 to 4 degrees for over
-  // 95% of frames, at most 4.5), for every duration. Periodic: the last
+  // sums of sinusoids of unrelated frequencies per axis, dominated by an
+  // elliptic wobble of yaw and pitch at about 0.9 Hz, with a hand's tremor
+  // (25 deg/s at about 5 Hz) that a constant-velocity prediction cannot
+  // follow (it misses by 0.86 deg in the median). At 30 fps: median 2.9
+  // degrees between frames, 2 to 4 degrees for 88% of frames, at most 4.7,
+  // for every duration. Periodic: the last
   // instant is at the first's pose. Rendered with motion blur by default
   // (SynthOptions::MotionBlur()).
   kShake,

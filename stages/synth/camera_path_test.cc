@@ -200,17 +200,18 @@ std::vector<double> SortedTurnsDeg(const Trajectory& t) {
 
 TEST(CameraPath, ShakeTurnsTwoToFourDegreesPerFrameAt30Hz) {
   // The figures: 600 frames at 30 Hz turn 2 to 4 degrees from frame
-  // to frame (60 to 120 deg/s), never much more.
+  // to frame (60 to 120 deg/s), never much more; the tremor's jerk spreads
+  // them a little (85% within 2 to 4 degrees).
   const std::vector<double> turns = SortedTurnsDeg(MakeTrajectory(TrajectoryKind::kShake, 600, 30));
   ASSERT_EQ(turns.size(), 599u);
   const double median = turns[turns.size() / 2];
   EXPECT_GE(median, 2.5);
   EXPECT_LE(median, 3.2);
-  EXPECT_GE(turns.front(), 1.5);
-  EXPECT_LE(turns.back(), 4.5);
+  EXPECT_GE(turns.front(), 1.2);
+  EXPECT_LE(turns.back(), 4.7);
   const auto in_range =
       std::count_if(turns.begin(), turns.end(), [](double turn) { return turn >= 2 && turn <= 4; });
-  EXPECT_GE(in_range, 0.9 * turns.size()) << "median " << median;
+  EXPECT_GE(in_range, 0.85 * turns.size()) << "median " << median;
 
   // The same speeds for every duration (the amplitudes follow the duration).
   for (int frames : kFrameCounts) {
@@ -219,8 +220,26 @@ TEST(CameraPath, ShakeTurnsTwoToFourDegreesPerFrameAt30Hz) {
         SortedTurnsDeg(MakeTrajectory(TrajectoryKind::kShake, frames, 30));
     EXPECT_GE(t[t.size() / 2], 2.0) << frames;
     EXPECT_LE(t[t.size() / 2], 4.0) << frames;
-    EXPECT_LE(t.back(), 4.5) << frames;
+    EXPECT_LE(t.back(), 4.7) << frames;
   }
+}
+
+// A hand's tremor: a constant-velocity prediction (the last frame-to-frame
+// rotation applied again) misses the next rotation by over half a degree in
+// the median, as on real hand-held sequences, where smooth synthetic paths
+// are predicted almost exactly.
+TEST(CameraPath, ShakeIsJerkyForAConstantVelocityPrediction) {
+  const Trajectory t = MakeTrajectory(TrajectoryKind::kShake, 600, 30);
+  std::vector<double> misses;
+  for (size_t i = 2; i < t.size(); ++i) {
+    const Eigen::Quaterniond& q0 = t[i - 2].T_world_cam.rotation;
+    const Eigen::Quaterniond& q1 = t[i - 1].T_world_cam.rotation;
+    const Eigen::Quaterniond predicted = q1 * (q0.conjugate() * q1);
+    misses.push_back(RotationAngle(predicted, t[i].T_world_cam.rotation) / kDeg);
+  }
+  std::sort(misses.begin(), misses.end());
+  EXPECT_GE(misses[misses.size() / 2], 0.6);
+  EXPECT_LE(misses.back(), 2.5);
 }
 
 TEST(CameraPath, ShakeStaysNearItsCentreAndLooksAtTheEastWall) {

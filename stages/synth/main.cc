@@ -13,7 +13,8 @@ void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
          "--trajectory",
          [o](const std::string& name) { rrslam::synth::ParseTrajectoryKind(name, &o->trajectory); },
          "Camera path: loop (closed loop, ends at its start), sweep (there and back), rotation "
-         "(pan in place), shake (fast hand-held roll/pitch/yaw shaking in place, 60-135 deg/s; "
+         "(pan in place), shake (fast hand-held roll/pitch/yaw shaking in place, 40-140 deg/s with "
+         "tremor; "
          "motion blur on by default)")
       ->check(CLI::IsMember({"loop", "sweep", "rotation", "shake"}))
       ->default_str(rrslam::synth::TrajectoryKindName(o->trajectory));
