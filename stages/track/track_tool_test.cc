@@ -4,11 +4,13 @@
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "common/atomic_file.h"
 #include "common/settings.h"
 #include "common/testing.h"
 #include "stages/extract/features_file.h"
@@ -23,21 +25,26 @@ using ::rrslam::testing::TempDir;
 using ::rrslam::testing::WriteTextFile;
 
 // A TUM-layout sequence of `frames` frames of a blurred random texture, with
-// constant depth `depth_raw` (depth units; 0 = none), 640 x 480.
-void WriteSequence(const fs::path& dir, int frames, uint16_t depth_raw) {
+// constant depth `depth_raw` (depth units; 0 = none), 640 x 480. From frame
+// `cut` on (if >= 0) the camera sees another, unrelated texture.
+void WriteSequence(const fs::path& dir, int frames, uint16_t depth_raw, int cut = -1) {
   fs::create_directories(dir / "rgb");
   fs::create_directories(dir / "depth");
-  cv::Mat texture(480, 640, CV_8UC3);
-  cv::RNG rng(5);
-  rng.fill(texture, cv::RNG::UNIFORM, 0, 255);
-  cv::GaussianBlur(texture, texture, cv::Size(5, 5), 1.5);
+  auto make_texture = [](uint64_t seed) {
+    cv::Mat texture(480, 640, CV_8UC3);
+    cv::RNG rng(seed);
+    rng.fill(texture, cv::RNG::UNIFORM, 0, 255);
+    cv::GaussianBlur(texture, texture, cv::Size(5, 5), 1.5);
+    return texture;
+  };
+  const cv::Mat texture = make_texture(5), other = make_texture(6);
   const cv::Mat depth(480, 640, CV_16UC1, cv::Scalar(depth_raw));
   std::ofstream rgb_list(dir / "rgb.txt"), depth_list(dir / "depth.txt");
   rgb_list << "# timestamp filename\n";
   depth_list << "# timestamp filename\n";
   for (int i = 0; i < frames; ++i) {
     const std::string name = std::to_string(i) + ".png";
-    cv::imwrite((dir / "rgb" / name).string(), texture);
+    cv::imwrite((dir / "rgb" / name).string(), cut >= 0 && i >= cut ? other : texture);
     cv::imwrite((dir / "depth" / name).string(), depth);
     rgb_list << 100 + 0.05 * i << " rgb/" << name << "\n";
     depth_list << 100 + 0.05 * i << " depth/" << name << "\n";
@@ -128,6 +135,21 @@ TEST_F(TrackToolTest, AllZeroDepthCannotInitializeExit75) {
   EXPECT_NE(r.output.find("never initialized"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out()));
   EXPECT_FALSE(fs::exists(dir_ / "out.tmp"));
+}
+
+// ORB-SLAM2's reset: lost with at most 5 keyframes in the map, the map is
+// discarded and the next frame initializes a new one. Frames 0-1 see one
+// texture, frames 2-5 another: frame 2 is lost, frame 3 starts a new map.
+TEST_F(TrackToolTest, LostSoonAfterInitializationResetsTheMap) {
+  WriteSequence(dir_ / "cut", 6, 10000, 2);
+  const auto r = Track((dir_ / "cut").string(), SettingsFile(), Voc());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json run = nlohmann::json::parse(ReadFileToString(out() / "run.json"));
+  EXPECT_EQ(run.at("counts").at("resets").get<int>(), 1);
+  // Frames 0-1 were tracked on the discarded map: lost, as frame 2.
+  EXPECT_EQ(run.at("counts").at("tracked").get<int>(), 3);
+  EXPECT_EQ(run.at("counts").at("lost").get<int>(), 3);
+  EXPECT_EQ(run.at("counts").at("keyframes").get<int>(), 1);
 }
 
 TEST_F(TrackToolTest, FailureKeepsAnExistingOutputFolder) {
