@@ -2,7 +2,8 @@
 // on it (rrslam-extract -> rrslam-cluster -> rrslam-vocab build); rrslam-track
 // tracks it in batch mode (twice, from images, and once from the features
 // file) and in realtime mode; rrslam-eval ate scores the trajectories. The
-// same for a short fast hand-held shake (motion blur, jerky rotation).
+// same for a short fast hand-held shake (motion blur, jerky rotation), and a
+// kidnapped camera that must relocalize.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,8 +13,11 @@
 #include <sstream>
 
 #include "common/atomic_file.h"
+#include "common/dataset.h"
+#include "common/image_io.h"
 #include "common/testing.h"
 #include "common/text.h"
+#include "common/trajectory.h"
 
 namespace rrslam {
 namespace {
@@ -157,6 +161,54 @@ TEST_F(TrackPipelineTest, TracksAFastShakeWithMotionBlur) {
   EXPECT_EQ(run.at("counts").at("tracked").get<int>(), kShakeFrames);
   EXPECT_LT(AteRmseAgainst(seq / "groundtruth.txt", out / "CameraTrajectory.txt", kShakeFrames),
             0.02);
+}
+
+// A kidnapped camera: frames 0-79 of the loop, three black frames (the lens
+// covered), then frames 20-59 again with later timestamps. The black frames
+// are lost; the first frame after them is relocalized in the map, and every
+// other frame gets a pose in the first part's world frame.
+TEST_F(TrackPipelineTest, KidnappedCameraIsRelocalized) {
+  const RgbdSequence room = RgbdSequence::Open(seq());
+  const Trajectory gt = ReadTumTrajectory(seq() / "groundtruth.txt");
+  ASSERT_EQ(room.size(), static_cast<size_t>(kFrames));
+  const fs::path kid = path("kidnapped");
+  fs::create_directories(kid / "rgb");
+  fs::create_directories(kid / "depth");
+  std::ofstream rgb_list(kid / "rgb.txt"), depth_list(kid / "depth.txt");
+  Trajectory kid_gt;
+  std::vector<int> order;
+  for (int i = 0; i < 80; ++i) order.push_back(i);
+  for (int i = 0; i < 3; ++i) order.push_back(-1);
+  for (int i = 20; i < 60; ++i) order.push_back(i);
+  for (size_t k = 0; k < order.size(); ++k) {
+    const double t = 1000 + k / 30.0;
+    const std::string name = std::to_string(k) + ".png";
+    const int i = order[k];
+    const RgbdFrameRef& f = room.frame(i < 0 ? 0 : i);
+    if (i < 0) {
+      WritePng(kid / "rgb" / name, cv::Mat::zeros(240, 320, CV_8UC3));
+    } else {
+      fs::copy_file(f.rgb_path, kid / "rgb" / name);
+      kid_gt.push_back({t, gt[i].T_world_cam});
+    }
+    fs::copy_file(f.depth_path, kid / "depth" / name);
+    rgb_list << std::fixed << t << " rgb/" << name << "\n";
+    depth_list << std::fixed << t << " depth/" << name << "\n";
+  }
+  rgb_list.close();
+  depth_list.close();
+  testing::WriteTextFile(kid / "groundtruth.txt", FormatTumTrajectory(kid_gt));
+
+  const fs::path out = path("kidnapped-track");
+  const auto r = testing::RunTool("track", "--quiet --sequence " + Quote(kid) + " --settings " +
+                                               Quote(settings()) + " --vocab " + Quote(vocab()) +
+                                               " --out " + Quote(out));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json run = nlohmann::json::parse(ReadFileToString(out / "run.json"));
+  EXPECT_EQ(run.at("counts").at("lost").get<int>(), 3);  // The black frames only.
+  EXPECT_EQ(run.at("counts").at("relocalizations").get<int>(), 1);
+  EXPECT_GE(run.at("timings").at("relocalization").at("count").get<int>(), 1);
+  EXPECT_LT(AteRmseAgainst(kid / "groundtruth.txt", out / "CameraTrajectory.txt", 120), 0.02);
 }
 
 }  // namespace

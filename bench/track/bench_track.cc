@@ -233,7 +233,7 @@ int main(int argc, char** argv) {
                    t.at("local_mapping").at("p95_ms").get<double>(), "ms", "-", true});
     report.Add(s, {"keyframes (final map)", double(Count(a.run, "keyframes")), "", "-", true});
     report.Add(s, {"map points (final map)", double(Count(a.run, "map_points")), "", "-", true});
-    report.Add(s, {"resumed after lost", double(Count(a.run, "resumed")), "", "-", true});
+    report.Add(s, {"relocalizations", double(Count(a.run, "relocalizations")), "", "-", true});
     report.Add(s, {"total wall time", t.at("total_s").get<double>(), "s", "-", true});
     const double rss = a.run.at("peak_rss_mb").get<double>();
     report.Add(s, {"peak memory (max RSS)", rss, "MB", "<= 500 MB", rss <= 500});

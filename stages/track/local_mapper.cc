@@ -311,6 +311,7 @@ void LocalMapper::Process(KeyFrame* keyframe, bool realtime) {
       std::lock_guard<std::mutex> lock(map_->mutex());
       adjuster_.Apply(map_);
       ++counters_.bundle_adjustments;
+      counters_.bundle_adjustment_solves += adjuster_.stats().solves;
       const LocalBundleAdjustmentStats& st = adjuster_.stats();
       spdlog::debug(
           "local BA at keyframe {}: {} free + {} fixed keyframes, {} points, {} observations, "

@@ -67,8 +67,9 @@ struct LocalMappingCounters {
   size_t fused_points = 0;
   size_t bundle_adjustments = 0;
   size_t aborted_bundle_adjustments = 0;
-  size_t max_queue = 0;             // Longest keyframe queue seen (realtime).
-  std::vector<double> keyframe_ms;  // Processing time of each keyframe.
+  size_t max_queue = 0;                  // Longest keyframe queue seen (realtime).
+  SolveCounts bundle_adjustment_solves;  // Both passes of every local BA.
+  std::vector<double> keyframe_ms;       // Processing time of each keyframe.
 };
 
 class LocalMapper {

@@ -238,6 +238,60 @@ int Matcher::SearchByProjection(Frame* frame, const std::vector<ProjectedPoint>&
   return matches;
 }
 
+int Matcher::SearchByProjection(Frame* frame, const KeyFrame& keyframe,
+                                const std::vector<MapPointId>& already_found, double th,
+                                int max_distance) const {
+  const FrameFeatures& f = frame->features();
+  const FrameFeatures& kf = keyframe.features();
+  const Eigen::Vector3d& centre = frame->camera_centre();
+  RotationHistogram histogram;
+  std::vector<uint32_t> candidates;
+  int matches = 0;
+  for (size_t i = 0; i < keyframe.size(); ++i) {
+    MapPoint* point = keyframe.map_point(i);
+    if (point == nullptr || point->bad() ||
+        std::binary_search(already_found.begin(), already_found.end(), point->id())) {
+      continue;
+    }
+    const Eigen::Vector3d p_cam = frame->ToCamera(point->position_world());
+    if (p_cam.z() <= 0) continue;
+    const double inv_z = 1.0 / p_cam.z();
+    const double u = sensor_.fx * p_cam.x() * inv_z + sensor_.cx;
+    const double v = sensor_.fy * p_cam.y() * inv_z + sensor_.cy;
+    if (!sensor_.bounds.Contains(u, v)) continue;
+    const double distance = (point->position_world() - centre).norm();
+    if (distance < point->MinDistanceInvariance() || distance > point->MaxDistanceInvariance()) {
+      continue;
+    }
+    const int level = point->PredictScale(sensor_, distance);
+    candidates.clear();
+    f.FeaturesInArea(sensor_, u, v, th * sensor_.pyramid.scale[level], level - 1, level + 1,
+                     &candidates);
+    int best_dist = 256, best_idx = -1;
+    for (uint32_t idx : candidates) {
+      if (frame->map_points[idx] != nullptr) continue;
+      const int dist = HammingDistance(point->descriptor(), f.descriptors[idx]);
+      if (dist < best_dist) {
+        best_dist = dist;
+        best_idx = static_cast<int>(idx);
+      }
+    }
+    if (best_idx < 0 || best_dist > max_distance) continue;
+    frame->map_points[best_idx] = point;
+    ++matches;
+    if (check_orientation_) {
+      histogram.Add(kf.keypoints[i].angle_deg, f.keypoints[best_idx].angle_deg, best_idx);
+    }
+  }
+  if (check_orientation_) {
+    for (int idx : histogram.Inconsistent()) {
+      frame->map_points[idx] = nullptr;
+      --matches;
+    }
+  }
+  return matches;
+}
+
 int Matcher::SearchByBow(const KeyFrame& keyframe, const Frame& frame,
                          std::vector<MapPoint*>* matches) const {
   const FrameFeatures& kf = keyframe.features();

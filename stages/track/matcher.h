@@ -98,6 +98,17 @@ class Matcher {
   // two best candidates share a level. Returns the number of new matches.
   int SearchByProjection(Frame* frame, const std::vector<ProjectedPoint>& points, double th) const;
 
+  // Relocalization search: projects `keyframe`'s map points that are not in
+  // `already_found` (sorted by id) with frame->T_cam_world() and matches each
+  // to the nearest-descriptor keypoint without a map point within th * scale
+  // of its predicted level (levels predicted - 1 .. + 1), if the distance is
+  // at most `max_distance` (ORB-SLAM2's SearchByProjection(Frame, KeyFrame,
+  // ...)), with the rotation histogram when enabled. Returns the number of
+  // new matches.
+  int SearchByProjection(Frame* frame, const KeyFrame& keyframe,
+                         const std::vector<MapPointId>& already_found, double th,
+                         int max_distance) const;
+
   // BoW search between a keyframe's map points and a frame's keypoints (both
   // with BoW computed). `matches` gets one map point (or nullptr) per frame
   // keypoint. Returns the number of matches.

@@ -39,6 +39,22 @@ ceres::CallbackReturnType SuccessfulStepLimit::operator()(const ceres::Iteration
   return successful_ >= limit_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
 }
 
+void SolveCounts::Add(const ceres::Solver::Summary& summary, int limit, int successful) {
+  ++solves;
+  successful_steps += successful;
+  at_step_limit += successful >= limit;
+  // summary.iterations holds iteration 0 (the initial evaluation) too.
+  beyond_iterations += summary.iterations.size() > static_cast<size_t>(limit) + 1;
+}
+
+SolveCounts& SolveCounts::operator+=(const SolveCounts& other) {
+  solves += other.solves;
+  successful_steps += other.successful_steps;
+  at_step_limit += other.at_step_limit;
+  beyond_iterations += other.beyond_iterations;
+  return *this;
+}
+
 ceres::Manifold* PoseManifold() {
   static PoseManifoldType manifold;
   return &manifold;
@@ -55,7 +71,7 @@ Rigid3d FromPoseBlock(const std::array<double, 7>& b) {
 }
 
 int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
-                      const PoseOptimizationOptions& options) {
+                      const PoseOptimizationOptions& options, SolveCounts* counts) {
   const FrameFeatures& f = frame->features();
   const ProjectionParameters k = ProjectionParametersOf(sensor);
   struct Match {
@@ -118,6 +134,9 @@ int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
     round_options.callbacks.push_back(&step_limit);
     ceres::Solver::Summary summary;
     ceres::Solve(round_options, &problem, &summary);
+    if (counts != nullptr) {
+      counts->Add(summary, options.iterations_per_round, step_limit.successful_steps());
+    }
 
     // Reclassify every match (also those left out of this round) at the new pose.
     bad = 0;
@@ -286,6 +305,7 @@ void LocalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
     if (abort != nullptr) options.callbacks.push_back(&abort_callback);
     ceres::Solver::Summary summary;
     ceres::Solve(options, &problem, &summary);
+    stats_.solves.Add(summary, iterations, step_limit.successful_steps());
     if (robust) stats_.initial_cost = summary.initial_cost;
     stats_.final_cost = summary.final_cost;
   };

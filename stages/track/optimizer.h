@@ -9,6 +9,7 @@
 #pragma once
 
 #include <ceres/iteration_callback.h>
+#include <ceres/solver.h>
 
 #include <atomic>
 #include <cstdint>
@@ -38,6 +39,19 @@ struct PoseOptimizationOptions {
   int robust_rounds = 3;          // Rounds that use the Huber loss (the last runs without).
 };
 
+// What the solves of an optimizer did, added up over solves: whether the
+// step limit ended them, and whether they needed more iterations in all
+// (rejected steps included) than the limit, where counting every iteration as
+// Ceres does would have stopped them early.
+struct SolveCounts {
+  size_t solves = 0;
+  size_t successful_steps = 0;
+  size_t at_step_limit = 0;      // Ended by the limit, not by convergence.
+  size_t beyond_iterations = 0;  // Used more than `limit` iterations in all.
+  void Add(const ceres::Solver::Summary& summary, int limit, int successful);
+  SolveCounts& operator+=(const SolveCounts& other);
+};
+
 // A Ceres iteration callback that ends the solve after `limit` successful
 // steps (g2o's iteration count; see above). Add it to the solver's callbacks
 // and set max_num_iterations to MaxIterationsFor(limit).
@@ -60,8 +74,9 @@ class SuccessfulStepLimit final : public ceres::IterationCallback {
 // above the chi-square bound makes it an outlier (frame->outlier[i] = 1), below
 // an inlier again. Returns the number of inliers; with fewer than 3 matches
 // returns 0 and leaves the pose unchanged.
+// `counts` (may be null) gets the rounds' solves added.
 int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
-                      const PoseOptimizationOptions& options = {});
+                      const PoseOptimizationOptions& options = {}, SolveCounts* counts = nullptr);
 
 struct LocalBundleAdjustmentOptions {
   int first_iterations = 5;    // Successful steps with Huber loss, on all observations.
@@ -82,6 +97,7 @@ struct LocalBundleAdjustmentStats {
   bool aborted = false;     // Stopped early by the abort flag.
   double initial_cost = 0;  // Ceres cost (half the sum of squared robustified residuals).
   double final_cost = 0;
+  SolveCounts solves;  // Both passes.
 };
 
 // Local bundle adjustment around a keyframe (ORB-SLAM2's

@@ -162,7 +162,11 @@ TEST_P(PoseOptimizationWithOutliersTest, RecoversPoseWithThirtyPercentOutliers) 
   }
   ASSERT_GT(frame.size(), 200u);
 
-  const int inliers = OptimizeFramePose(sensor, &frame);
+  SolveCounts counts;
+  const int inliers = OptimizeFramePose(sensor, &frame, {}, &counts);
+  EXPECT_EQ(counts.solves, 4u);  // One per round.
+  EXPECT_GT(counts.successful_steps, 4u);
+  EXPECT_LE(counts.at_step_limit, counts.solves);
   EXPECT_LT(TranslationError(frame.T_cam_world(), T_true), 0.005);
   EXPECT_LT(RotationAngle(frame.T_cam_world().rotation, T_true.rotation), 0.1 * M_PI / 180);
   int flagged_wrong = 0, flagged_right = 0, num_wrong = 0;

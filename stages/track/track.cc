@@ -299,7 +299,7 @@ TrackSummary RunTrack(const TrackOptions& options) {
   mapper_options.bow_levels_up = bow_levels_up;
   mapper_options.bundle_adjustment.depth_fallback = options.ba_depth_fallback;
   LocalMapper mapper(sensor, vocabulary, &map, &database, mapper_options);
-  Tracker tracker(sensor, vocabulary, &map, &mapper, tracker_options);
+  Tracker tracker(sensor, vocabulary, &map, &mapper, database, tracker_options);
   if (realtime) mapper.Start();
 
   std::unique_ptr<ImagePrefetcher> prefetcher;
@@ -418,7 +418,7 @@ TrackSummary RunTrack(const TrackOptions& options) {
                       {"map_points", summary.map_points},
                       {"keyframes_created", map.num_created_keyframes()},
                       {"keyframes_culled", counters.culled_keyframes},
-                      {"resumed", tracker.resumed()},
+                      {"relocalizations", tracker.relocalizations()},
                       {"resets", tracker.resets()}};
   report["lost_timestamps"] = summary.lost_timestamps;
   report["local_mapping"] = {{"keyframes_processed", counters.keyframes},
@@ -428,8 +428,17 @@ TrackSummary RunTrack(const TrackOptions& options) {
                              {"bundle_adjustments", counters.bundle_adjustments},
                              {"aborted_bundle_adjustments", counters.aborted_bundle_adjustments},
                              {"max_queue", counters.max_queue}};
+  auto solves_json = [](const SolveCounts& c) {
+    return nlohmann::json{{"solves", c.solves},
+                          {"successful_steps", c.successful_steps},
+                          {"at_step_limit", c.at_step_limit},
+                          {"beyond_iterations", c.beyond_iterations}};
+  };
+  report["optimization"] = {{"pose", solves_json(tracker.pose_solves())},
+                            {"local_ba", solves_json(counters.bundle_adjustment_solves)}};
   report["timings"] = {{"tracking", ToJson(tracking)},
                        {"extraction", ToJson(SummarizeTimings(extraction_ms))},
+                       {"relocalization", ToJson(SummarizeTimings(tracker.relocalization_ms()))},
                        {"local_mapping", ToJson(SummarizeTimings(counters.keyframe_ms))},
                        {"image_loading", ToJson(SummarizeTimings(loading_ms))},
                        {"loop_s", loop_s},

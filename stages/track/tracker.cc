@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <map>
 
@@ -11,8 +12,14 @@
 namespace rrslam {
 
 Tracker::Tracker(const SensorModel& sensor, const Vocabulary& vocabulary, Map* map,
-                 LocalMapper* mapper, const TrackerOptions& options)
-    : sensor_(sensor), vocabulary_(vocabulary), map_(map), mapper_(mapper), options_(options) {}
+                 LocalMapper* mapper, const KeyFrameDatabase& database,
+                 const TrackerOptions& options)
+    : sensor_(sensor),
+      vocabulary_(vocabulary),
+      map_(map),
+      mapper_(mapper),
+      options_(options),
+      relocalizer_(sensor, database) {}
 
 bool Tracker::Track(Frame frame, bool* new_keyframe) {
   std::lock_guard<std::mutex> lock(map_->mutex());
@@ -35,11 +42,11 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
       }
       if (!ok) ok = TrackReferenceKeyFrame(reference_keyframe_, last_frame_.T_cam_world());
     } else {
-      ok = Resume();
+      ok = Relocalize();
     }
     current_.reference_keyframe = reference_keyframe_;
     if (ok) ok = TrackLocalMap();
-    if (ok && was_lost) ++resumed_;
+    if (ok && was_lost) ++relocalizations_;
     state_ = ok ? State::kOk : State::kLost;
     if (ok) {
       if (last_frame_tracked_) {
@@ -173,7 +180,7 @@ bool Tracker::TrackWithMotionModel() {
     matches = matcher.SearchByProjection(&current_, last_frame_, 2 * options_.motion_search_radius);
   }
   if (matches < options_.min_motion_matches) return false;
-  OptimizeFramePose(sensor_, &current_);
+  OptimizeFramePose(sensor_, &current_, {}, &pose_solves_);
   return DiscardOutliers() >= options_.min_pose_inliers;
 }
 
@@ -189,29 +196,20 @@ bool Tracker::TrackReferenceKeyFrame(KeyFrame* keyframe, const Rigid3d& initial_
   current_.map_points = std::move(matches);
   std::fill(current_.outlier.begin(), current_.outlier.end(), 0);
   current_.SetPose(initial_T_cam_world);
-  OptimizeFramePose(sensor_, &current_);
+  OptimizeFramePose(sensor_, &current_, {}, &pose_solves_);
   return DiscardOutliers() >= options_.min_pose_inliers;
 }
 
-bool Tracker::Resume() {
-  // Candidates: the reference keyframe (or, if it was culled, its nearest
-  // surviving ancestor) and the last keyframe.
-  auto alive = [](KeyFrame* kf) {
-    while (kf != nullptr && kf->bad()) kf = kf->parent();
-    return kf;
-  };
-  KeyFrame* candidates[2] = {alive(reference_keyframe_), alive(last_keyframe_)};
-  for (int c = 0; c < 2; ++c) {
-    KeyFrame* kf = candidates[c];
-    if (kf == nullptr || (c == 1 && kf == candidates[0])) continue;
-    std::fill(current_.map_points.begin(), current_.map_points.end(), nullptr);
-    if (TrackReferenceKeyFrame(kf, kf->T_cam_world())) {
-      reference_keyframe_ = kf;
-      relocalized_frame_id_ = current_.id();
-      return true;
-    }
-  }
-  return false;
+bool Tracker::Relocalize() {
+  const auto start = std::chrono::steady_clock::now();
+  current_.ComputeBow(vocabulary_, options_.bow_levels_up);
+  KeyFrame* keyframe = relocalizer_.Relocalize(&current_, &pose_solves_);
+  relocalization_ms_.push_back(
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  if (keyframe == nullptr) return false;
+  reference_keyframe_ = keyframe;
+  relocalized_frame_id_ = current_.id();
+  return true;
 }
 
 bool Tracker::TrackLocalMap() {
@@ -220,7 +218,7 @@ bool Tracker::TrackLocalMap() {
   int before = 0;
   for (MapPoint* p : current_.map_points) before += p != nullptr;
   const int found = SearchLocalPoints();
-  OptimizeFramePose(sensor_, &current_);
+  OptimizeFramePose(sensor_, &current_, {}, &pose_solves_);
   spdlog::debug(
       "frame {}: {} matched before local map, {} local keyframes, {} local points, {} found",
       current_.id(), before, local_keyframes_.size(), local_points_.size(), found);
@@ -232,7 +230,7 @@ bool Tracker::TrackLocalMap() {
     if (point->num_observations() > 0) ++matches_inliers_;
   }
   if (RecentlyRelocalized(options_.max_keyframe_gap) &&
-      matches_inliers_ < options_.min_local_map_inliers_resumed) {
+      matches_inliers_ < options_.min_local_map_inliers_relocalized) {
     return false;
   }
   return matches_inliers_ >= options_.min_local_map_inliers;

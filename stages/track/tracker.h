@@ -8,8 +8,9 @@
 //    their covisibility neighbours), their map points projected and matched,
 //    then pose-only optimization;
 //  - keyframe decision and creation with new map points from close depth.
-// When tracking fails the frame is lost; each following frame tries to resume
-// by BoW matching against the reference keyframe (and the last keyframe).
+// When tracking fails the frame is lost; each following frame is relocalized
+// against the whole map (relocalizer.h) until one succeeds; lost with at most
+// 5 keyframes in the map, the map is reset instead (ORB-SLAM2).
 //
 // Thread-safety: Track() is called from one thread; it holds Map::mutex()
 // while it touches the map, so it can run beside a realtime LocalMapper.
@@ -24,6 +25,8 @@
 #include "stages/track/local_mapper.h"
 #include "stages/track/map.h"
 #include "stages/track/matcher.h"
+#include "stages/track/optimizer.h"
+#include "stages/track/relocalizer.h"
 #include "stages/track/sensor_model.h"
 
 namespace rrslam {
@@ -51,7 +54,7 @@ struct TrackerOptions {
   int min_bow_matches = 15;        // BoW matches needed to track the reference keyframe.
   int min_pose_inliers = 10;       // Map inliers needed after either pose optimization.
   int min_local_map_inliers = 30;  // After local-map tracking.
-  int min_local_map_inliers_resumed =
+  int min_local_map_inliers_relocalized =
       50;  // ... within max_keyframe_gap frames of a relocalization.
   // Keyframe decision (ORB-SLAM2): at most this many frames without a keyframe
   // (the camera frame rate), ...
@@ -92,9 +95,10 @@ class Tracker {
   enum class State { kNotInitialized, kOk, kLost };
 
   // All references must outlive the tracker. `mapper` receives the new
-  // keyframes through LocalMapper::Enqueue().
+  // keyframes through LocalMapper::Enqueue(); `database` (filled by the
+  // mapper) gives relocalization candidates.
   Tracker(const SensorModel& sensor, const Vocabulary& vocabulary, Map* map, LocalMapper* mapper,
-          const TrackerOptions& options = {});
+          const KeyFrameDatabase& database, const TrackerOptions& options = {});
 
   // Tracks one frame (frames must come in order). Returns true when the frame
   // got a pose. `new_keyframe` (optional) tells whether it made a keyframe.
@@ -103,8 +107,10 @@ class Tracker {
   State state() const { return state_; }
   const std::vector<TrackedFrame>& records() const { return records_; }
   const Frame& last_frame() const { return last_frame_; }
-  // Frames that resumed tracking after being lost.
-  size_t resumed() const { return resumed_; }
+  // Frames relocalized after being lost.
+  size_t relocalizations() const { return relocalizations_; }
+  // Duration of every relocalization attempt (successful or not), ms.
+  const std::vector<double>& relocalization_ms() const { return relocalization_ms_; }
   // True after a frame was lost with at most reset_max_keyframes keyframes in
   // the map. The caller then clears the mapper, the map and the keyframe
   // database and calls Reset() (ORB-SLAM2's System::Reset).
@@ -113,13 +119,15 @@ class Tracker {
   // before are marked lost (their poses referred to the discarded map).
   void Reset();
   size_t resets() const { return resets_; }
+  // The pose optimizations' solves so far.
+  const SolveCounts& pose_solves() const { return pose_solves_; }
 
  private:
   bool Initialize();
   void ReplaceInLastFrame();
   bool TrackWithMotionModel();
   bool TrackReferenceKeyFrame(KeyFrame* keyframe, const Rigid3d& initial_T_cam_world);
-  bool Resume();
+  bool Relocalize();
   bool TrackLocalMap();
   void UpdateLocalKeyFrames();
   void UpdateLocalPoints();
@@ -148,8 +156,11 @@ class Tracker {
   bool RecentlyRelocalized(uint64_t frames) const {
     return current_.id() < relocalized_frame_id_ + frames;
   }
-  size_t resumed_ = 0;
+  size_t relocalizations_ = 0;
+  std::vector<double> relocalization_ms_;
+  Relocalizer relocalizer_;
   bool reset_requested_ = false;
+  SolveCounts pose_solves_;
   size_t resets_ = 0;
   int matches_inliers_ = 0;
 

@@ -19,7 +19,7 @@ TEST(TrackerOptionsTest, DefaultsAreOrbSlam2RgbdValues) {
   EXPECT_EQ(o.bow_levels_up, 4);
   EXPECT_EQ(o.reset_max_keyframes, 5);  // Reset when lost with <= 5 keyframes.
   EXPECT_EQ(o.min_local_map_inliers, 30);
-  EXPECT_EQ(o.min_local_map_inliers_resumed, 50);
+  EXPECT_EQ(o.min_local_map_inliers_relocalized, 50);
 }
 
 }  // namespace
