@@ -18,11 +18,8 @@ using testing::RandomScene;
 using testing::RenderView;
 using testing::SmallMotion;
 using testing::TestSensor;
+using testing::TranslationError;
 using testing::ViewOptions;
-
-double TranslationError(const Rigid3d& a, const Rigid3d& b) {
-  return (a.Inverse().translation - b.Inverse().translation).norm();
-}
 
 TEST(ReprojectionErrorTest, AnalyticJacobiansMatchNumericDifferentiation) {
   const ProjectionParameters k{500, 510, 320, 240, 40};

@@ -15,11 +15,8 @@ using testing::RandomScene;
 using testing::RenderView;
 using testing::SmallMotion;
 using testing::TestSensor;
+using testing::TranslationError;
 using testing::ViewOptions;
-
-double TranslationError(const Rigid3d& a, const Rigid3d& b) {
-  return (a.Inverse().translation - b.Inverse().translation).norm();
-}
 
 TEST(SolvePnpRansacTest, RecoversThePoseWithHalfTheMatchesWrong) {
   std::mt19937 rng(3);

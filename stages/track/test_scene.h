@@ -135,6 +135,11 @@ inline MapPoint* MakeFreePoint(Map* map, const SensorModel& sensor, const SceneP
   return point;
 }
 
+// Distance between the camera centres of two T_cam_world poses, metres.
+inline double TranslationError(const Rigid3d& a, const Rigid3d& b) {
+  return (a.Inverse().translation - b.Inverse().translation).norm();
+}
+
 // A small pose change: rotation of `angle_rad` about a fixed axis and a
 // translation of `metres`.
 inline Rigid3d SmallMotion(double angle_rad, double metres) {
