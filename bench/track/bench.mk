@@ -15,6 +15,11 @@
 #    RMSE <= 1 cm (noise-free) and <= 2 cm (noise); and `shake` (fast
 #    hand-held rotation with its default blur and depth noise) with a
 #    vocabulary trained on itself: all frames tracked, ATE <= 1 cm.
+#  - Kidnapped camera (issue 12): each real sequence's first frames, then an
+#    earlier stretch again (bench/track/make_kidnapped.sh, links to the
+#    images): frames lost after the jump (goal <= 3), ATE of the whole
+#    against the first part tracked alone (goal <= 1.2 x), and the time of
+#    each relocalization attempt (goal median <= 15 ms, p95 <= 40 ms).
 # Result: bench/results/track-<UTC date>[-BENCH_TRACK_TAG].txt (and .json).
 #
 # To measure an option of rrslam-track (docs/track.md, "Departures from
@@ -50,6 +55,9 @@ bench_track_goal.7scenes-kitchen := 4.3
 bench_track_dir.fr1_xyz := $(SHARED_DATA)/tum/fr1_xyz
 bench_track_settings.fr1_xyz := $(SHARED_DATA)/settings/tum1.yaml
 bench_track_goal.fr1_xyz := 1.0
+# Kidnapped versions: frames [A, B) then [C, D) of each.
+bench_track_kidnap.7scenes-kitchen := 0 600 100 400
+bench_track_kidnap.fr1_xyz := 0 400 50 250
 # The other vocabularies of each: every 2nd frame, with these k-means seeds.
 BENCH_TRACK_OTHER_SEEDS ?= 0 1
 
@@ -82,13 +90,22 @@ $(BENCH_TRACK_DIR)/synth/shake/groundtruth.txt: $(BIN)/rrslam-synth
 	$(BIN)/rrslam-synth --quiet --out $(@D) --trajectory shake --frames $(BENCH_TRACK_FRAMES) \
 	  --seed 1
 
+# The kidnapped sequence of real sequence $(1).
+define bench_track_kidnapped
+$(BENCH_TRACK_DIR)/kidnapped/$(1)/rgb.txt: bench/track/make_kidnapped.sh $(bench_track_dir.$(1))/rgb.txt
+	@mkdir -p $$(dir $$(@D))
+	bench/track/make_kidnapped.sh $(bench_track_dir.$(1)) $(bench_track_kidnap.$(1)) $$(@D)
+endef
+$(foreach n,$(bench_track_real_present),$(eval $(call bench_track_kidnapped,$(n))))
+
 bench_track_synth_inputs := $(foreach p,$(BENCH_TRACK_PATHS), \
   $(BENCH_TRACK_DIR)/synth/$(p)-clean/groundtruth.txt \
   $(BENCH_TRACK_DIR)/synth/$(p)-noisy/groundtruth.txt) \
   $(BENCH_TRACK_DIR)/synth/shake/groundtruth.txt
 
 .PHONY: bench-track bench-track-data
-bench-track-data: $(bench_track_synth_inputs)
+bench-track-data: $(bench_track_synth_inputs) \
+    $(foreach n,$(bench_track_real_present),$(BENCH_TRACK_DIR)/kidnapped/$(n)/rgb.txt)
 	$(foreach n,$(bench_track_real_present),$(MAKE) --no-print-directory \
 	  $(bench_track_pipeline)/$(n)/voc.rrv $(call bench_track_real_args,$(n)) \
 	  PIPELINE_ROOT=$(bench_track_pipeline) && \
@@ -107,7 +124,8 @@ bench-track: configure
 	$(BUILD_DIR)/bench/bench_track --bin $(BIN) --data $(BENCH_TRACK_DIR) \
 	  $(foreach n,$(BENCH_TRACK_REAL),--real $(n) --real-dir $(bench_track_dir.$(n)) \
 	    --real-settings $(bench_track_settings.$(n)) --real-goal $(bench_track_goal.$(n)) \
-	    --real-vocabs "$(call bench_track_vocabs,$(n))") \
+	    --real-vocabs "$(call bench_track_vocabs,$(n))" \
+	    --real-kidnapped "$(BENCH_TRACK_DIR)/kidnapped/$(n) $(word 2,$(bench_track_kidnap.$(n)))") \
 	  --paths "$(BENCH_TRACK_PATHS)" --shake --track-args "$(BENCH_TRACK_ARGS)" \
 	  $(if $(filter 1,$(BENCH_TRACK_QUICK)),--quick) $(if $(BENCH_TRACK_TAG),--tag $(BENCH_TRACK_TAG)) \
 	  --machine "$$(bench/machine.sh)" \

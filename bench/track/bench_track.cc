@@ -4,13 +4,15 @@
 //
 //   bench_track --bin DIR --data DIR
 //               [--real NAME --real-dir DIR --real-settings YAML --real-goal CM
-//                --real-vocabs "FILE FILE ..."]...
+//                --real-vocabs "FILE FILE ..." [--real-kidnapped "DIR N"]]...
 //               --paths "loop sweep rotation" [--shake] [--track-args "..."]
 //               [--quick] [--tag NAME] --machine TEXT --out PREFIX
 // Real sequences: each is tracked with each of its vocabularies (the first
 // is the one `make vocab` trains; the others show the spread over training
 // choices) against the ATE goal; with the first one also twice (byte-identical
-// batch runs) and paced in realtime mode, unless --quick. Synthetic sequences
+// batch runs), paced in realtime mode, and, given --real-kidnapped, on its
+// kidnapped version DIR (bench/track/make_kidnapped.sh; its first N frames are
+// the sequence's first N) against those N frames tracked alone, unless --quick. Synthetic sequences
 // are read from DATA/synth/<path>-{clean,noisy}/ with vocabularies
 // DATA/pipeline/<path>-clean/voc.rrv, and, with --shake, DATA/synth/shake/
 // with DATA/pipeline/shake/voc.rrv. --track-args is added to every
@@ -145,7 +147,7 @@ size_t Count(const nlohmann::json& run, const char* key) {
 int main(int argc, char** argv) {
   CLI::App app("Runs the track benchmark and writes its figures beside their goals.");
   fs::path bin, data;
-  std::vector<std::string> real_names, real_vocabs;
+  std::vector<std::string> real_names, real_vocabs, real_kidnapped;
   std::vector<fs::path> real_dirs, real_settings;
   std::vector<double> real_goals;
   std::string paths = "loop sweep rotation", machine, out_prefix, track_args;
@@ -159,6 +161,8 @@ int main(int argc, char** argv) {
   app.add_option("--real-goal", real_goals, "Its ATE RMSE goal, cm");
   app.add_option("--real-vocabs", real_vocabs,
                  "Its vocabularies, space-separated; the first is the pipeline's default");
+  app.add_option("--real-kidnapped", real_kidnapped,
+                 "Its kidnapped version: \"DIR N\", N the frames before the jump (all or none)");
   app.add_option("--paths", paths, "Synthetic camera paths")->capture_default_str();
   app.add_flag("--shake", shake, "Also the synthetic shake sequence (fast rotation, blur)");
   app.add_option("--track-args", track_args, "Added to every rrslam-track command");
@@ -169,7 +173,8 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   const size_t n_real = real_names.size();
   if (real_dirs.size() != n_real || real_settings.size() != n_real || real_goals.size() != n_real ||
-      real_vocabs.size() != n_real) {
+      real_vocabs.size() != n_real ||
+      (!real_kidnapped.empty() && real_kidnapped.size() != n_real)) {
     std::cerr << "bench_track: give --real-dir, --real-settings, --real-goal and --real-vocabs "
                  "once per --real\n";
     return 64;
@@ -272,6 +277,53 @@ int main(int argc, char** argv) {
     }
 
     if (quick) continue;
+    if (!real_kidnapped.empty()) {
+      std::istringstream spec(real_kidnapped[q]);
+      fs::path kid_dir;
+      size_t first = 0;
+      spec >> kid_dir >> first;
+      const std::string k = name + ", kidnapped (frames 0-" + std::to_string(first - 1) +
+                            ", then an earlier stretch again)";
+      if (!fs::exists(kid_dir / "rgb.txt") || first == 0) {
+        report.Note(k, "skipped: kidnapped sequence not found");
+      } else {
+        const RunResult whole =
+            track(kid_dir, real_settings[q], vocabs[0], name + "-kidnapped", "");
+        const RunResult part = track(dir, real_settings[q], vocabs[0], name + "-first-part",
+                                     "--max-frames " + std::to_string(first));
+        if (!whole.ok || !part.ok) {
+          failed_run = true;
+        } else {
+          // Frames lost after the jump: the kidnapped run's lost frames from
+          // frame `first` on (its frames are 1/30 s apart from the first).
+          const rrslam::Trajectory kid_gt = rrslam::ReadTumTrajectory(kid_dir / "groundtruth.txt");
+          const double jump_time = kid_gt.front().timestamp + (first - 0.5) / 30.0;
+          size_t lost_after = 0;
+          for (const auto& t : whole.run.at("lost_timestamps")) {
+            lost_after += t.get<double>() >= jump_time;
+          }
+          const double ratio = whole.ate_rmse_m / part.ate_rmse_m;
+          const auto& reloc = whole.run.at("timings").at("relocalization");
+          report.Add(
+              k, {"frames lost after the jump", double(lost_after), "", "<= 3", lost_after <= 3});
+          report.Add(k, {"frames tracked", double(Count(whole.run, "tracked")),
+                         "of " + std::to_string(Count(whole.run, "frames")), "-", true});
+          report.Add(
+              k, {"relocalizations", double(Count(whole.run, "relocalizations")), "", "-", true});
+          report.Add(k, {"ATE RMSE, whole", whole.ate_rmse_m * 100, "cm", "-", true});
+          report.Add(k, {"ATE RMSE, first part alone", part.ate_rmse_m * 100, "cm", "-", true});
+          report.Add(k, {"ATE ratio whole / first part", ratio, "", "<= 1.2", ratio <= 1.2});
+          const double median = reloc.at("median_ms").get<double>();
+          const double p95 = reloc.at("p95_ms").get<double>();
+          const size_t attempts = reloc.at("count").get<size_t>();
+          report.Add(k, {"relocalization attempts", double(attempts), "", "-", true});
+          report.Add(k, {"relocalization attempt median", median, "ms", "<= 15 ms",
+                         attempts > 0 && median <= 15});
+          report.Add(
+              k, {"relocalization attempt p95", p95, "ms", "<= 40 ms", attempts > 0 && p95 <= 40});
+        }
+      }
+    }
     const std::string r = name + ", realtime (paced at the frame timestamps)";
     const RunResult rt =
         track(dir, real_settings[q], vocabs[0], name + "-realtime", "--mode realtime --pace");
@@ -352,7 +404,7 @@ int main(int argc, char** argv) {
   }
 
   std::ostringstream text;
-  text << "# bench-track: rrslam-track against the goals of issue 11 (command: make bench-track"
+  text << "# bench-track: rrslam-track against the goals of issues 11 and 12 (command: make bench-track"
        << (track_args.empty() ? "" : " BENCH_TRACK_ARGS='" + track_args + "'")
        << (quick ? " BENCH_TRACK_QUICK=1" : "") << ")\n";
   text << "# machine: " << machine << "\n";
