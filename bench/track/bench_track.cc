@@ -404,7 +404,8 @@ int main(int argc, char** argv) {
   }
 
   std::ostringstream text;
-  text << "# bench-track: rrslam-track against the goals of issues 11 and 12 (command: make bench-track"
+  text << "# bench-track: rrslam-track against the goals of issues 11 and 12 (command: make "
+          "bench-track"
        << (track_args.empty() ? "" : " BENCH_TRACK_ARGS='" + track_args + "'")
        << (quick ? " BENCH_TRACK_QUICK=1" : "") << ")\n";
   text << "# machine: " << machine << "\n";

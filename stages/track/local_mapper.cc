@@ -376,17 +376,11 @@ void LocalMapper::Run() {
 
 void LocalMapper::Reset() {
   const bool running = thread_.joinable();
-  if (running) {
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      queue_.clear();  // Not processed: their map is being discarded.
-    }
-    Stop();
-  }
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
-    queue_.clear();
+    queue_.clear();  // Not processed: their map is being discarded.
   }
+  if (running) Stop();  // Finishes the keyframe in progress.
   recent_points_.clear();
   if (running) Start();
 }

@@ -243,7 +243,6 @@ int Matcher::SearchByProjection(Frame* frame, const KeyFrame& keyframe,
                                 int max_distance) const {
   const FrameFeatures& f = frame->features();
   const FrameFeatures& kf = keyframe.features();
-  const Eigen::Vector3d& centre = frame->camera_centre();
   RotationHistogram histogram;
   std::vector<uint32_t> candidates;
   int matches = 0;
@@ -253,19 +252,15 @@ int Matcher::SearchByProjection(Frame* frame, const KeyFrame& keyframe,
         std::binary_search(already_found.begin(), already_found.end(), point->id())) {
       continue;
     }
-    const Eigen::Vector3d p_cam = frame->ToCamera(point->position_world());
-    if (p_cam.z() <= 0) continue;
-    const double inv_z = 1.0 / p_cam.z();
-    const double u = sensor_.fx * p_cam.x() * inv_z + sensor_.cx;
-    const double v = sensor_.fy * p_cam.y() * inv_z + sensor_.cy;
-    if (!sensor_.bounds.Contains(u, v)) continue;
-    const double distance = (point->position_world() - centre).norm();
-    if (distance < point->MinDistanceInvariance() || distance > point->MaxDistanceInvariance()) {
+    // No viewing-angle test here (ORB-SLAM2's relocalization search has none).
+    ProjectedPoint pp;
+    if (!ProjectIntoView(sensor_, frame->R_cam_world(), frame->T_cam_world().translation,
+                         frame->camera_centre(), point, -1.0, &pp)) {
       continue;
     }
-    const int level = point->PredictScale(sensor_, distance);
+    const int level = pp.level;
     candidates.clear();
-    f.FeaturesInArea(sensor_, u, v, th * sensor_.pyramid.scale[level], level - 1, level + 1,
+    f.FeaturesInArea(sensor_, pp.u, pp.v, th * sensor_.pyramid.scale[level], level - 1, level + 1,
                      &candidates);
     int best_dist = 256, best_idx = -1;
     for (uint32_t idx : candidates) {

@@ -40,7 +40,7 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
       if (velocity_ && !RecentlyRelocalized(2)) {
         ok = TrackWithMotionModel();
       }
-      if (!ok) ok = TrackReferenceKeyFrame(reference_keyframe_, last_frame_.T_cam_world());
+      if (!ok) ok = TrackReferenceKeyFrame();
     } else {
       ok = Relocalize();
     }
@@ -94,7 +94,6 @@ void Tracker::Reset() {
   state_ = State::kNotInitialized;
   velocity_.reset();
   reference_keyframe_ = nullptr;
-  last_keyframe_ = nullptr;
   local_keyframes_.clear();
   local_points_.clear();
   last_frame_tracked_ = false;
@@ -128,7 +127,6 @@ bool Tracker::Initialize() {
   }
   mapper_->Enqueue(keyframe);
 
-  last_keyframe_ = keyframe;
   last_keyframe_frame_id_ = current_.id();
   reference_keyframe_ = keyframe;
   current_.reference_keyframe = keyframe;
@@ -184,18 +182,19 @@ bool Tracker::TrackWithMotionModel() {
   return DiscardOutliers() >= options_.min_pose_inliers;
 }
 
-bool Tracker::TrackReferenceKeyFrame(KeyFrame* keyframe, const Rigid3d& initial_T_cam_world) {
+bool Tracker::TrackReferenceKeyFrame() {
+  KeyFrame* keyframe = reference_keyframe_;
   if (keyframe == nullptr) return false;
   current_.ComputeBow(vocabulary_, options_.bow_levels_up);
-  keyframe->ComputeBow(
-      vocabulary_, options_.bow_levels_up);  // A keyframe still queued for mapping has none yet.
+  // A keyframe still queued for mapping has none yet.
+  keyframe->ComputeBow(vocabulary_, options_.bow_levels_up);
   const Matcher matcher(sensor_, 0.7, true);
   std::vector<MapPoint*> matches;
   const int n = matcher.SearchByBow(*keyframe, current_, &matches);
   if (n < options_.min_bow_matches) return false;
   current_.map_points = std::move(matches);
   std::fill(current_.outlier.begin(), current_.outlier.end(), 0);
-  current_.SetPose(initial_T_cam_world);
+  current_.SetPose(last_frame_.T_cam_world());
   OptimizeFramePose(sensor_, &current_, {}, &pose_solves_);
   return DiscardOutliers() >= options_.min_pose_inliers;
 }
@@ -410,7 +409,6 @@ void Tracker::CreateNewKeyFrame() {
     if (depth > sensor_.th_depth && points > options_.new_keyframe_points) break;
   }
   mapper_->Enqueue(keyframe);
-  last_keyframe_ = keyframe;
   last_keyframe_frame_id_ = current_.id();
 }
 

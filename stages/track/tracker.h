@@ -126,7 +126,8 @@ class Tracker {
   bool Initialize();
   void ReplaceInLastFrame();
   bool TrackWithMotionModel();
-  bool TrackReferenceKeyFrame(KeyFrame* keyframe, const Rigid3d& initial_T_cam_world);
+  // BoW matching against the reference keyframe from the last frame's pose.
+  bool TrackReferenceKeyFrame();
   bool Relocalize();
   bool TrackLocalMap();
   void UpdateLocalKeyFrames();
@@ -148,7 +149,6 @@ class Tracker {
   std::optional<Rigid3d> velocity_;  // T_cam_last: current pose times last pose inverse.
   std::optional<Rigid3d> last_good_T_cam_world_;
   KeyFrame* reference_keyframe_ = nullptr;
-  KeyFrame* last_keyframe_ = nullptr;
   uint64_t last_keyframe_frame_id_ = 0;
   // ORB-SLAM2's mnLastRelocFrameId: the frame of the last relocalization, or
   // of the initialization (which ORB-SLAM2 treats alike: frame 0).
