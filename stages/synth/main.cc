@@ -37,6 +37,10 @@ void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
   app.add_option("--depth-holes", o->depth_holes,
                  "Fraction of pixels without depth (edges, far range, grazing first) [0, 0.9]")
       ->capture_default_str();
+  app.add_option("--depth-scale-error", o->depth_scale_error,
+                 "Depth scale bias E: the sensor reports (1 + E) * true depth, before noise "
+                 "and holes; 0.01 = 1% too far (-0.5, 0.5)")
+      ->capture_default_str();
   app.add_option("--brightness-change", o->brightness_change,
                  "Amplitude of the exposure change: gain within 1 +- this [0, 0.9]")
       ->capture_default_str();

@@ -29,7 +29,11 @@ cv::Mat SimulateDepthSensor(const cv::Mat& depth, const cv::Mat& cos_incidence,
   assert(depth.type() == CV_32FC1 && cos_incidence.type() == CV_32FC1);
   assert(depth.size() == cos_incidence.size());
   const int width = depth.cols, height = depth.rows;
-  auto z_at = [&](int r, int c) { return depth.ptr<float>(r)[c]; };
+  // Depth as the miscalibrated sensor sees it, before noise and holes. With
+  // scale_error = 0 this is the input exactly (x * 1.0 is exact), so the
+  // output is bit-identical to a model without the bias.
+  const double scale = 1.0 + model.scale_error;
+  auto z_at = [&](int r, int c) { return scale * depth.ptr<float>(r)[c]; };
 
   // Probability of a hole per pixel.
   std::vector<float> hole_probability;
@@ -39,13 +43,13 @@ cv::Mat SimulateDepthSensor(const cv::Mat& depth, const cv::Mat& cos_incidence,
     std::vector<uint8_t> edge(size_t(width) * height, 0);
     for (int r = 0; r < height; ++r) {
       for (int c = 0; c < width; ++c) {
-        const float z = z_at(r, c);
+        const float z = static_cast<float>(z_at(r, c));
         if (z <= 0) continue;
         const float threshold = std::max(0.02f, 0.04f * z);
         const int nbr[4][2] = {{r - 1, c}, {r + 1, c}, {r, c - 1}, {r, c + 1}};
         for (const auto& n : nbr) {
           if (n[0] < 0 || n[0] >= height || n[1] < 0 || n[1] >= width) continue;
-          const float zn = z_at(n[0], n[1]);
+          const float zn = static_cast<float>(z_at(n[0], n[1]));
           if (zn <= 0 || std::fabs(zn - z) > threshold) {
             edge[size_t(r) * width + c] = 1;
             break;
@@ -71,7 +75,7 @@ cv::Mat SimulateDepthSensor(const cv::Mat& depth, const cv::Mat& cos_incidence,
     for (int r = 0; r < height; ++r) {
       const float* cosine = cos_incidence.ptr<float>(r);
       for (int c = 0; c < width; ++c) {
-        const float z = z_at(r, c);
+        const float z = static_cast<float>(z_at(r, c));
         if (z <= 0) continue;
         double w = 1.0;
         if (zone[size_t(r) * width + c]) w += kEdgeWeight;

@@ -1,7 +1,7 @@
-// Sensor effects of rrslam-synth: Kinect-like depth noise and holes, and a
-// global exposure (brightness) change. Pure functions of their inputs and
-// keys: a pixel's value depends only on (seed, frame index, pixel), never on
-// threads.
+// Sensor effects of rrslam-synth: Kinect-like depth noise and holes, a depth
+// scale bias, and a global exposure (brightness) change. Pure functions of
+// their inputs and keys: a pixel's value depends only on (seed, frame index,
+// pixel), never on threads.
 #pragma once
 
 #include <cstdint>
@@ -10,6 +10,14 @@
 namespace rrslam::synth {
 
 struct DepthSensorModel {
+  // Depth scale error E, dimensionless (a fraction, not a percentage): the
+  // sensor is miscalibrated by the factor 1 + E and reports (1 + E) * z for
+  // a surface at true depth z, so E = 0.01 reads 1% long (2.02 m at 2 m) and
+  // E = -0.01 1% short. Applied first: the axial noise and the hole model
+  // below see the biased depth (their z is (1 + E) times the true depth).
+  // 0 = calibrated (bit-identical to a model without this term).
+  // rrslam-synth accepts (-0.5, 0.5).
+  double scale_error = 0.0;
   // Axial noise: Gaussian with sigma = noise_coefficient * z^2 (metres, z in
   // metres), the Kinect v1 model of Khoshelham and Elberink (2012). 0 = exact.
   double noise_coefficient = 1.425e-3;
@@ -26,7 +34,8 @@ struct DepthSensorModel {
 
 // The 16-bit depth image (CV_16UC1) a Kinect-like sensor would give for exact
 // depth `depth` (CV_32FC1, metres, 0 = no surface) with incidence cosines
-// `cos_incidence` (CV_32FC1, same size). Deterministic in (seed, frame).
+// `cos_incidence` (CV_32FC1, same size): scaled by 1 + model.scale_error,
+// then noisy and with holes. Deterministic in (seed, frame).
 cv::Mat SimulateDepthSensor(const cv::Mat& depth, const cv::Mat& cos_incidence,
                             const DepthSensorModel& model, uint64_t seed, uint64_t frame);
 

@@ -36,6 +36,67 @@ TEST(DepthSensor, ExactWithoutNoiseAndHoles) {
   EXPECT_EQ(out.at<uint16_t>(7, 7), 0);
 }
 
+TEST(DepthSensor, ScaleErrorBiasesEveryDepth) {
+  DepthSensorModel model;
+  model.noise_coefficient = 0;
+  model.hole_fraction = 0;
+  const cv::Mat depth(60, 80, CV_32FC1, cv::Scalar(2.0f));
+  const cv::Mat facing = Facing(depth);
+  auto metres = [](const cv::Mat& out) {
+    cv::Mat m;
+    out.convertTo(m, CV_64F, 1.0 / 5000.0);
+    return m;
+  };
+  // Calibrated: the exact depth.
+  const cv::Mat exact = SimulateDepthSensor(depth, facing, model, 0, 0);
+  EXPECT_EQ(cv::countNonZero(exact != 10000), 0);
+  // 1% too far, 1% too near: every pixel, within the 1/5000 m quantization.
+  const double step = 1.0 / model.depth_map_factor;
+  for (double e : {0.01, -0.01}) {
+    model.scale_error = e;
+    const cv::Mat out = SimulateDepthSensor(depth, facing, model, 0, 0);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(metres(out), &lo, &hi);
+    EXPECT_NEAR(lo, 2.0 * (1 + e), 0.5 * step + 1e-12) << e;
+    EXPECT_NEAR(hi, 2.0 * (1 + e), 0.5 * step + 1e-12) << e;
+  }
+  // Back to 0: bit-identical to the default model.
+  model.scale_error = 0;
+  EXPECT_EQ(cv::norm(SimulateDepthSensor(depth, facing, model, 0, 0), exact, cv::NORM_INF), 0.0);
+  // A depth pushed beyond 16 bits by the bias is reported as no depth.
+  model.scale_error = 0.2;
+  const cv::Mat far(4, 4, CV_32FC1, cv::Scalar(12.0f));  // 14.4 m > 13.107 m.
+  EXPECT_EQ(cv::countNonZero(SimulateDepthSensor(far, Facing(far), model, 0, 0)), 0);
+}
+
+TEST(DepthSensor, ScaleErrorKeepsTheRandomDraws) {
+  // With noise and holes on, E = 0 gives the default model's image exactly,
+  // and E != 0 keeps the same holes (on a flat scene, where the hole weights
+  // do not change) and the same noise deviates, scaled with the depth.
+  DepthSensorModel model;
+  model.hole_fraction = 0.1;
+  const cv::Mat depth(120, 160, CV_32FC1, cv::Scalar(2.0f));
+  const cv::Mat facing = Facing(depth);
+  const cv::Mat base = SimulateDepthSensor(depth, facing, model, 5, 2);
+  model.scale_error = 0.0;
+  EXPECT_EQ(cv::norm(SimulateDepthSensor(depth, facing, model, 5, 2), base, cv::NORM_INF), 0.0);
+  model.scale_error = 0.01;
+  const cv::Mat biased = SimulateDepthSensor(depth, facing, model, 5, 2);
+  EXPECT_EQ(cv::countNonZero((base == 0) != (biased == 0)), 0);
+  EXPECT_GT(cv::countNonZero(base == 0), 0);
+  // measured = z' + k z'^2 n with z' = 1.01 z: the noise-free part moves by
+  // 2 cm and the deviation by a factor 1.01^2.
+  const double k = model.noise_coefficient, z = 2.0, zb = 2.02;
+  for (int r = 0; r < depth.rows; ++r) {
+    for (int c = 0; c < depth.cols; ++c) {
+      if (base.at<uint16_t>(r, c) == 0) continue;
+      const double n = (base.at<uint16_t>(r, c) / 5000.0 - z) / (k * z * z);
+      EXPECT_NEAR(biased.at<uint16_t>(r, c) / 5000.0, zb + k * zb * zb * n, 1.1 / 5000.0)
+          << r << " " << c;
+    }
+  }
+}
+
 TEST(DepthSensor, NoiseGrowsWithTheSquareOfDepth) {
   DepthSensorModel model;
   model.hole_fraction = 0;

@@ -81,6 +81,9 @@ bool SynthOptions::Check(std::string* why) const {
   if (!(depth_holes >= 0 && depth_holes <= 0.9)) {
     return Fail(why, "depth_holes = " + Num(depth_holes) + "; must be in [0, 0.9]");
   }
+  if (!(depth_scale_error > -0.5 && depth_scale_error < 0.5)) {
+    return Fail(why, "depth_scale_error = " + Num(depth_scale_error) + "; must be in (-0.5, 0.5)");
+  }
   if (!(brightness_change >= 0 && brightness_change <= 0.9)) {
     return Fail(why, "brightness_change = " + Num(brightness_change) + "; must be in [0, 0.9]");
   }
@@ -148,6 +151,7 @@ std::string SynthOptions::ToJson() const {
   j["cy"] = camera.cy();
   j["depth_noise"] = depth_noise;
   j["depth_holes"] = depth_holes;
+  j["depth_scale_error"] = depth_scale_error;
   j["brightness_change"] = brightness_change;
   j["motion_blur"] = MotionBlur();
   j["seed"] = seed;
@@ -226,6 +230,7 @@ SynthFrame SyntheticSequence::Render(size_t i) const {
                                                            path_.duration(), options_.seed));
 
   synth::DepthSensorModel model;
+  model.scale_error = options_.depth_scale_error;
   model.noise_coefficient = options_.depth_noise;
   model.hole_fraction = options_.depth_holes;
   model.depth_map_factor = kDepthMapFactor;

@@ -64,6 +64,12 @@ struct SynthOptions {
   // Expected fraction of pixels without depth, at depth edges, far range and
   // grazing angles first (sensor.h). In [0, 0.9]; 0 = every pixel has depth.
   double depth_holes = 0.02;
+  // Depth scale error E, dimensionless: the simulated sensor is miscalibrated
+  // and reports (1 + E) times the true depth, before noise and holes
+  // (DepthSensorModel::scale_error); E = 0.01 is a 1% bias (2.02 m at 2 m).
+  // In (-0.5, 0.5); 0 = calibrated. The ground truth and settings.yaml stay
+  // exact: the bias is the sensor's, unknown to whoever reads the sequence.
+  double depth_scale_error = 0.0;
   // Amplitude of the global exposure change over the sequence: the gain
   // varies smoothly within 1 +- brightness_change. In [0, 0.9].
   double brightness_change = 0.0;

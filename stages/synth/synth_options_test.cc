@@ -43,6 +43,10 @@ TEST(SynthOptions, EachConstraintFails) {
       {"depth_noise", [](SynthOptions& o) { o.depth_noise = 0.06; }},
       {"depth_holes", [](SynthOptions& o) { o.depth_holes = -0.1; }},
       {"depth_holes", [](SynthOptions& o) { o.depth_holes = 0.95; }},
+      {"depth_scale_error", [](SynthOptions& o) { o.depth_scale_error = 0.5; }},
+      {"depth_scale_error", [](SynthOptions& o) { o.depth_scale_error = -0.5; }},
+      {"depth_scale_error", [](SynthOptions& o) { o.depth_scale_error = 2; }},
+      {"depth_scale_error", [nan](SynthOptions& o) { o.depth_scale_error = nan; }},
       {"brightness_change", [](SynthOptions& o) { o.brightness_change = 1.0; }},
       {"brightness_change", [](SynthOptions& o) { o.brightness_change = -0.1; }},
       {"motion_blur", [](SynthOptions& o) { o.motion_blur = -1; }},
@@ -72,6 +76,7 @@ TEST(SynthOptions, BoundaryValuesPass) {
   o.fx = 1;
   o.depth_noise = 0;
   o.depth_holes = 0;
+  o.depth_scale_error = 0.499;
   o.motion_blur = 64;
   o.brightness_change = 0.9;
   o.threads = 256;
@@ -151,6 +156,31 @@ TEST(SynthOptions, JsonRecordsResolvedOptions) {
   EXPECT_NE(json.find("\"seed\":7"), std::string::npos) << json;
   EXPECT_NE(json.find("\"fx\":525.0"), std::string::npos) << json;
   EXPECT_EQ(json.find("threads"), std::string::npos) << "threads do not change the output";
+}
+
+TEST(SynthOptions, DepthScaleError) {
+  SynthOptions o;
+  EXPECT_EQ(o.depth_scale_error, 0.0);  // Calibrated by default.
+  EXPECT_NE(o.ToJson().find("\"depth_scale_error\":0.0"), std::string::npos) << o.ToJson();
+  std::string why;
+  for (double e : {-0.499, -0.01, 0.01, 0.499}) {
+    o.depth_scale_error = e;
+    EXPECT_TRUE(o.Check(&why)) << e << ": " << why;
+  }
+  o.depth_scale_error = 0.01;
+  EXPECT_NE(o.ToJson().find("\"depth_scale_error\":0.01"), std::string::npos) << o.ToJson();
+  // The sensor's bias is not known to the settings: they stay those of E = 0.
+  EXPECT_DOUBLE_EQ(o.MakeSettings().depth_map_factor, 5000.0);
+  EXPECT_DOUBLE_EQ(o.MakeSettings().depth_disparity_sigma,
+                   SynthOptions().MakeSettings().depth_disparity_sigma);
+  // Out of range: one line naming the option and its value.
+  o.depth_scale_error = 0.6;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_EQ(why, "depth_scale_error = 0.6; must be in (-0.5, 0.5)");
+  o.depth_scale_error = -0.5;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_EQ(why, "depth_scale_error = -0.5; must be in (-0.5, 0.5)");
+  EXPECT_THROW(SyntheticSequence sequence(o), UsageError);
 }
 
 TEST(SynthOptions, RunSynthRejectsBadOptionsAndWritesNothing) {

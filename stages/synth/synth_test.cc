@@ -111,6 +111,7 @@ TEST(RunSynth, WritesATumSequenceThatTheReadersAccept) {
   EXPECT_EQ(info["options"]["frames"], 5);
   EXPECT_EQ(info["options"]["seed"], 0);
   EXPECT_DOUBLE_EQ(info["options"]["depth_noise"].get<double>(), 1.425e-3);
+  EXPECT_DOUBLE_EQ(info["options"]["depth_scale_error"].get<double>(), 0.0);
 }
 
 TEST(RunSynth, NoiseFreeDepthReprojectsToTheSceneWithinAMillimetre) {
@@ -405,7 +406,8 @@ TEST_F(SynthTool, ShakeRecordsItsBlurAndNoiseAndHonoursAnExplicitZeroBlur) {
 TEST_F(SynthTool, BadOptionsExit64AndWriteNothing) {
   for (const std::string args :
        {" --frames 0", " --trajectory circle", " --depth-holes 2", " --width abc",
-        " --no-such-flag", " --motion-blur -1", " --motion-blur abc"}) {
+        " --no-such-flag", " --motion-blur -1", " --motion-blur abc", " --depth-scale-error 0.5",
+        " --depth-scale-error -0.7"}) {
     const auto result =
         testing::RunTool("synth", "--out " + (dir_ / "seq").string() + small_ + args);
     EXPECT_EQ(result.exit_code, 64) << args << "\n" << result.output;
@@ -440,8 +442,8 @@ TEST_F(SynthTool, HelpListsEveryFlagWithItsDefault) {
   ASSERT_EQ(result.exit_code, 0);
   for (const char* flag :
        {"--out", "--trajectory", "--frames", "--fps", "--width", "--height", "--fx", "--fy", "--cx",
-        "--cy", "--depth-noise", "--depth-holes", "--brightness-change", "--motion-blur", "--seed",
-        "--texel-size", "--threads", "Exit codes"}) {
+        "--cy", "--depth-noise", "--depth-holes", "--depth-scale-error", "--brightness-change",
+        "--motion-blur", "--seed", "--texel-size", "--threads", "Exit codes"}) {
     EXPECT_NE(result.output.find(flag), std::string::npos) << flag;
   }
   EXPECT_NE(result.output.find("300"), std::string::npos);
