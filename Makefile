@@ -7,6 +7,8 @@
 #   make eval-all   evaluate every sequence (pipelines/eval.mk)
 #   make bench      benchmarks, results in bench/results/
 #   make fuzz       build the libFuzzer targets (build-fuzz/)
+#   make test-tsan  the track tests under ThreadSanitizer (build-tsan/)
+#   make test-asan  the track tests under AddressSanitizer (build-asan/)
 #   make format     clang-format every source file
 #   make deps       install missing Debian packages only
 
@@ -21,7 +23,7 @@ DATA_ROOT ?= data
 SHARED_DATA ?= $(abspath ../shared/data)
 BIN := $(BUILD_DIR)/bin
 
-.PHONY: all build deps configure test demo bench fuzz format clean help
+.PHONY: all build deps configure test test-tsan test-asan demo bench fuzz format clean help
 
 all: build
 
@@ -42,11 +44,40 @@ build: configure
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)
 
+# --- Sanitizer builds of the track tests --------------------------------------
+# The track stage's tests (CTest track/*) and its end-to-end test (e2e/track,
+# the one that runs rrslam-track --mode realtime, with local mapping in its own
+# thread), built with -DRRSLAM_SANITIZE=thread / address in a tree of their own
+# (build/ is not touched) and run there; the tests run the tools of that tree's
+# bin/, so every rrslam-* they start is instrumented too. e2e/track also runs
+# rrslam-synth, -extract, -cluster, -vocab and -eval. Each report goes to
+# build-<x>san/sanitizer-logs/ (a test that checks only an exit code would
+# swallow it), is printed at the end, and fails the target. tests/tsan.supp
+# lists the third-party reports TSan may ignore, each with its reason.
+SANITIZER_TARGETS := track-tests e2e_track rrslam-synth rrslam-extract rrslam-cluster \
+                     rrslam-vocab rrslam-eval
+SANITIZER_TESTS := ^(track/|e2e/track$$)
+TSAN_OPTIONS ?= halt_on_error=1 second_deadlock_stack=1
+ASAN_OPTIONS ?= halt_on_error=1 detect_leaks=1
+
+build-tsan/CMakeCache.txt build-asan/CMakeCache.txt: build-%/CMakeCache.txt: | deps
+	cmake -S . -B build-$* -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) -DRRSLAM_DATA_DIR=$(SHARED_DATA) \
+	  -DRRSLAM_SANITIZE=$(if $(filter tsan,$*),thread,address)
+
+test-tsan test-asan: test-%: build-%/CMakeCache.txt
+	cmake --build build-$* -j $(JOBS) --target $(SANITIZER_TARGETS)
+	logs=$(CURDIR)/build-$*/sanitizer-logs; rm -rf $$logs; mkdir -p $$logs; \
+	  cd build-$* || exit 1; status=0; \
+	  TSAN_OPTIONS="$(TSAN_OPTIONS) suppressions=$(CURDIR)/tests/tsan.supp log_path=$$logs/tsan" ASAN_OPTIONS="$(ASAN_OPTIONS) log_path=$$logs/asan" \
+	    ctest --output-on-failure -j $(JOBS) -R '$(SANITIZER_TESTS)' $(CTEST_ARGS) || status=$$?; \
+	  for report in $$(ls $$logs); do echo "=== $$logs/$$report"; cat $$logs/$$report; status=1; done; \
+	  exit $$status
+
 format:
 	find common stages tests bench -name '*.cc' -o -name '*.h' | xargs clang-format -i
 
 clean:
-	rm -rf $(BUILD_DIR) build-fuzz
+	rm -rf $(BUILD_DIR) build-fuzz build-tsan build-asan
 
 include pipelines/demo.mk
 -include pipelines/vocab.mk
