@@ -1,4 +1,4 @@
-// rrslam-track: RGB-D tracking and local mapping over a TUM-layout sequence.
+// rrslam-track: RGB-D SLAM (tracking, local mapping, loop closing) over a TUM-layout sequence.
 #include "common/cli.h"
 #include "stages/track/track.h"
 
@@ -23,8 +23,8 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
                  "default: pair rgb.txt and depth.txt")
       ->capture_default_str();
   app.add_option("--mode", o->mode,
-                 "batch: local mapping in step after each keyframe (bit-identical runs); "
-                 "realtime: local mapping in its own thread")
+                 "batch: local mapping and loop closing in step after each keyframe "
+                 "(bit-identical runs); realtime: each in its own thread")
       ->capture_default_str();
   app.add_option("--max-frames", o->max_frames, "Track at most this many frames (0 = all)")
       ->capture_default_str();
@@ -34,6 +34,8 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
   app.add_option("--extraction-threads", o->extraction_threads,
                  "Threads of the ORB extractor (does not change the result)")
       ->capture_default_str();
+  app.add_flag("--no-loop-closing{false}", o->loop_closing,
+               "Turn loop closing (and its global bundle adjustment) off");
   // Departures from ORB-SLAM2; docs/track.md gives the measurements.
   app.add_option("--close-tracked", o->close_tracked,
                  "Keyframe when fewer close points are tracked (ORB-SLAM2: 100)")
@@ -56,7 +58,7 @@ int main(int argc, char** argv) {
   return rrslam::RunTool(
       argc, argv,
       {"track",
-       "Tracks an RGB-D sequence and builds a local map (ORB-SLAM2's RGB-D front end with "
+       "Tracks an RGB-D sequence, maps it and closes its loops (ORB-SLAM2's RGB-D SLAM with "
        "Ceres); writes CameraTrajectory.txt, KeyFrameTrajectory.txt and run.json."},
       [&](CLI::App& app) { BindTrackOptions(app, &options); }, [&] { rrslam::RunTrack(options); });
 }

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "common/trajectory.h"
-#include "stages/track/map.h"
-#include "stages/track/tracker.h"
+#include "stages/track/data/map.h"
+#include "stages/track/module/tracker.h"
 
 namespace rrslam {
 

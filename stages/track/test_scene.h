@@ -12,9 +12,9 @@
 
 #include "common/geometry.h"
 #include "common/settings.h"
-#include "stages/track/frame.h"
-#include "stages/track/map.h"
-#include "stages/track/sensor_model.h"
+#include "stages/track/data/frame.h"
+#include "stages/track/data/map.h"
+#include "stages/track/data/sensor_model.h"
 
 namespace rrslam::testing {
 

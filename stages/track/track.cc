@@ -23,14 +23,15 @@
 #include "common/trajectory.h"
 #include "stages/extract/features_file.h"
 #include "stages/extract/orb_extractor.h"
-#include "stages/track/frame.h"
-#include "stages/track/keyframe_database.h"
-#include "stages/track/local_mapper.h"
-#include "stages/track/map.h"
-#include "stages/track/optimizer.h"
+#include "stages/track/data/frame.h"
+#include "stages/track/data/keyframe_database.h"
+#include "stages/track/module/local_mapper.h"
+#include "stages/track/module/loop_closer.h"
+#include "stages/track/data/map.h"
+#include "stages/track/optimize/optimizer.h"
 #include "stages/track/run_report.h"
-#include "stages/track/sensor_model.h"
-#include "stages/track/tracker.h"
+#include "stages/track/data/sensor_model.h"
+#include "stages/track/module/tracker.h"
 #include "stages/vocab/vocabulary.h"
 
 namespace rrslam {
@@ -230,7 +231,8 @@ nlohmann::json TrackOptions::ToJson() const {
           {"close_tracked", close_tracked},
           {"ba_depth_fallback", ba_depth_fallback},
           {"small_vocab_groups", small_vocab_groups},
-          {"expand_all_local_keyframes", expand_all_local_keyframes}};
+          {"expand_all_local_keyframes", expand_all_local_keyframes},
+          {"loop_closing", loop_closing}};
 }
 
 TrackSummary RunTrack(const TrackOptions& options) {
@@ -300,7 +302,12 @@ TrackSummary RunTrack(const TrackOptions& options) {
   mapper_options.bundle_adjustment.depth_fallback = options.ba_depth_fallback;
   LocalMapper mapper(sensor, vocabulary, &map, &database, mapper_options);
   Tracker tracker(sensor, vocabulary, &map, &mapper, database, tracker_options);
-  if (realtime) mapper.Start();
+  LoopCloser closer(sensor, vocabulary, &map, &database, &mapper);
+  if (options.loop_closing) mapper.SetKeyFrameSink([&closer](KeyFrame* kf) { closer.Enqueue(kf); });
+  if (realtime) {
+    mapper.Start();
+    if (options.loop_closing) closer.Start();
+  }
 
   std::unique_ptr<ImagePrefetcher> prefetcher;
   std::unique_ptr<OrbExtractor> extractor;
@@ -353,17 +360,25 @@ TrackSummary RunTrack(const TrackOptions& options) {
       spdlog::warn("track: frame {} lost with {} keyframes in the map; resetting the map", k,
                    map.num_keyframes());
       mapper.Reset();
+      closer.Reset();
       std::lock_guard<std::mutex> lock(map.mutex());
       map.Clear();
       database.Clear();
       tracker.Reset();
     }
     tracking_ms.push_back(MillisecondsSince(start));
-    if (!realtime && new_keyframe) mapper.ProcessQueued();
+    if (!realtime && new_keyframe) {
+      mapper.ProcessQueued();
+      closer.ProcessQueued();
+    }
     progress.Advance();
   }
-  if (realtime) mapper.Stop();
+  if (realtime) {
+    mapper.Stop();
+    closer.Stop();
+  }
   mapper.ProcessQueued();  // Nothing in realtime mode after Stop(); none left in batch.
+  closer.ProcessQueued();
   progress.Finish();
   const double loop_s = std::chrono::duration<double>(Clock::now() - loop_start).count();
 
@@ -419,6 +434,7 @@ TrackSummary RunTrack(const TrackOptions& options) {
                       {"keyframes_created", map.num_created_keyframes()},
                       {"keyframes_culled", counters.culled_keyframes},
                       {"relocalizations", tracker.relocalizations()},
+                      {"loop_closures", closer.counters().loops.size()},
                       {"resets", tracker.resets()}};
   report["lost_timestamps"] = summary.lost_timestamps;
   report["local_mapping"] = {{"keyframes_processed", counters.keyframes},
@@ -434,12 +450,43 @@ TrackSummary RunTrack(const TrackOptions& options) {
                           {"at_step_limit", c.at_step_limit},
                           {"beyond_iterations", c.beyond_iterations}};
   };
+  const LoopClosingCounters& loops = closer.counters();
+  nlohmann::json loop_list = nlohmann::json::array();
+  std::vector<double> global_ba_ms;
+  for (const LoopClosure& l : loops.loops) {
+    loop_list.push_back(
+        {{"keyframe", l.keyframe},
+         {"matched_keyframe", l.matched},
+         {"frame", l.frame},
+         {"matched_frame", l.matched_frame},
+         {"timestamp", sequence.frame(frames.at(l.frame)).rgb_timestamp},
+         {"matched_timestamp", sequence.frame(frames.at(l.matched_frame)).rgb_timestamp},
+         {"bow_matches", l.bow_matches},
+         {"ransac_inliers", l.ransac_inliers},
+         {"inliers", l.optimized_inliers},
+         {"matches", l.matches},
+         {"correction_m", l.correction_m},
+         {"correction_deg", l.correction_deg},
+         {"correction_ms", l.correction_ms},
+         {"global_ba_ms", l.global_ba_ms},
+         {"global_ba_aborted", l.global_ba_aborted}});
+    if (l.global_ba_ms > 0) global_ba_ms.push_back(l.global_ba_ms);
+  }
+  report["loop_closing"] = {{"enabled", options.loop_closing},
+                            {"keyframes_checked", loops.keyframes},
+                            {"detections", loops.detections},
+                            {"geometric_rejections", loops.geometric_fails},
+                            {"loops", loop_list}};
   report["optimization"] = {{"pose", solves_json(tracker.pose_solves())},
-                            {"local_ba", solves_json(counters.bundle_adjustment_solves)}};
+                            {"local_ba", solves_json(counters.bundle_adjustment_solves)},
+                            {"essential_graph", solves_json(loops.essential_graph)},
+                            {"global_ba", solves_json(loops.global_ba)}};
   report["timings"] = {{"tracking", ToJson(tracking)},
                        {"extraction", ToJson(SummarizeTimings(extraction_ms))},
                        {"relocalization", ToJson(SummarizeTimings(tracker.relocalization_ms()))},
                        {"local_mapping", ToJson(SummarizeTimings(counters.keyframe_ms))},
+                       {"loop_detection", ToJson(SummarizeTimings(loops.detection_ms))},
+                       {"global_ba", ToJson(SummarizeTimings(global_ba_ms))},
                        {"image_loading", ToJson(SummarizeTimings(loading_ms))},
                        {"loop_s", loop_s},
                        {"total_s", std::chrono::duration<double>(Clock::now() - run_start).count()},

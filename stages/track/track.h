@@ -1,4 +1,4 @@
-// The `track` stage: RGB-D SLAM front end (tracking and local mapping) over a
+// The `track` stage: RGB-D SLAM (tracking, local mapping, loop closing) over a
 // TUM-layout sequence, writing the camera trajectory, the keyframe trajectory
 // and a run report.
 //
@@ -59,6 +59,10 @@ struct TrackOptions {
   // Local keyframes: neighbours of every keyframe observing the frame's
   // points (ORB-SLAM2 stops at the first parent it adds).
   bool expand_all_local_keyframes = false;
+
+  // Loop closing (ORB-SLAM2's LoopClosing, with global bundle adjustment
+  // after each loop); off: tracking and local mapping only.
+  bool loop_closing = true;
 
   // Names the first violated constraint ("--mode = x; must be batch or realtime").
   bool Check(std::string* why) const;

@@ -1,0 +1,226 @@
+#include "stages/track/data/map.h"
+
+#include <algorithm>
+#include <map>
+
+namespace rrslam {
+
+KeyFrame* Map::CreateKeyFrame(const Frame& frame) {
+  keyframes_.push_back(std::make_unique<KeyFrame>(keyframes_.size(), frame));
+  keyframe_in_map_.push_back(0);
+  return keyframes_.back().get();
+}
+
+MapPoint* Map::CreateMapPoint(const Eigen::Vector3d& position_world, KeyFrame* reference_keyframe) {
+  map_points_.push_back(
+      std::make_unique<MapPoint>(map_points_.size(), position_world, reference_keyframe));
+  map_point_in_map_.push_back(0);
+  return map_points_.back().get();
+}
+
+void Map::AddKeyFrame(KeyFrame* keyframe) {
+  uint8_t& in = keyframe_in_map_.at(keyframe->id());
+  if (in) return;
+  in = 1;
+  ++num_keyframes_;
+  if (root_ == nullptr) root_ = keyframe;
+}
+
+void Map::AddMapPoint(MapPoint* point) {
+  uint8_t& in = map_point_in_map_.at(point->id());
+  if (in) return;
+  in = 1;
+  ++num_map_points_;
+}
+
+std::vector<KeyFrame*> Map::KeyFrames() const {
+  std::vector<KeyFrame*> out;
+  out.reserve(num_keyframes_);
+  for (size_t i = 0; i < keyframes_.size(); ++i) {
+    if (keyframe_in_map_[i]) out.push_back(keyframes_[i].get());
+  }
+  return out;
+}
+
+std::vector<MapPoint*> Map::MapPoints() const {
+  std::vector<MapPoint*> out;
+  out.reserve(num_map_points_);
+  for (size_t i = 0; i < map_points_.size(); ++i) {
+    if (map_point_in_map_[i]) out.push_back(map_points_[i].get());
+  }
+  return out;
+}
+
+void Map::Clear() {
+  for (size_t i = 0; i < map_points_.size(); ++i) {
+    if (!map_point_in_map_[i]) continue;
+    map_points_[i]->MarkBad(nullptr);
+    map_points_[i]->ClearObservations();
+    map_point_in_map_[i] = 0;
+  }
+  for (size_t i = 0; i < keyframes_.size(); ++i) {
+    KeyFrame* kf = keyframes_[i].get();
+    if (kf->bad()) continue;  // Also those created but not yet added.
+    for (size_t k = 0; k < kf->size(); ++k) kf->SetMapPoint(k, nullptr);
+    kf->MarkBad(Rigid3d::Identity());
+    keyframe_in_map_[i] = 0;
+  }
+  num_map_points_ = 0;
+  num_keyframes_ = 0;
+  root_ = nullptr;
+}
+
+void Map::AddObservation(MapPoint* point, KeyFrame* keyframe, uint32_t index) {
+  point->AddObservation(keyframe, index);
+  keyframe->SetMapPoint(index, point);
+}
+
+void Map::EraseObservation(MapPoint* point, KeyFrame* keyframe) {
+  const int index = point->IndexIn(keyframe);
+  if (index < 0) return;
+  point->RemoveObservation(keyframe);
+  if (keyframe->map_point(index) == point) keyframe->SetMapPoint(index, nullptr);
+  // A point measured by a single depth observation (weight 2) or two plain
+  // ones no longer constrains anything: cull it (ORB-SLAM2's rule).
+  if (point->num_observations() <= 2) CullMapPoint(point);
+}
+
+void Map::CullMapPoint(MapPoint* point) {
+  if (point->bad()) return;
+  point->MarkBad(nullptr);
+  for (const MapPoint::Observation& o : point->observations()) {
+    if (o.keyframe->map_point(o.index) == point) o.keyframe->SetMapPoint(o.index, nullptr);
+  }
+  point->ClearObservations();
+  uint8_t& in = map_point_in_map_.at(point->id());
+  if (in) {
+    in = 0;
+    --num_map_points_;
+  }
+}
+
+void Map::ReplaceMapPoint(MapPoint* point, MapPoint* by) {
+  if (point == by || point->bad()) return;
+  const std::vector<MapPoint::Observation> observations = point->observations();
+  point->ClearObservations();
+  point->MarkBad(by);
+  for (const MapPoint::Observation& o : observations) {
+    if (!by->IsObservedBy(o.keyframe)) {
+      o.keyframe->SetMapPoint(o.index, by);
+      by->AddObservation(o.keyframe, o.index);
+    } else {
+      o.keyframe->SetMapPoint(o.index, nullptr);
+    }
+  }
+  by->IncreaseFound(point->found());
+  by->IncreaseVisible(point->visible());
+  by->ComputeDistinctiveDescriptor();
+  uint8_t& in = map_point_in_map_.at(point->id());
+  if (in) {
+    in = 0;
+    --num_map_points_;
+  }
+}
+
+void Map::UpdateConnections(KeyFrame* keyframe) {
+  // Points shared with every other keyframe, counted in keyframe-id order.
+  std::map<KeyFrameId, KeyFrame::Connection> counter;
+  for (const MapPoint* point : keyframe->map_points()) {
+    if (point == nullptr || point->bad()) continue;
+    for (const MapPoint::Observation& o : point->observations()) {
+      if (o.keyframe == keyframe || o.keyframe->bad()) continue;
+      auto [it, inserted] =
+          counter.try_emplace(o.keyframe->id(), KeyFrame::Connection{o.keyframe, 0});
+      ++it->second.weight;
+    }
+  }
+  if (counter.empty()) return;
+
+  std::vector<KeyFrame::Connection> edges;
+  KeyFrame::Connection best{nullptr, 0};
+  for (const auto& [id, c] : counter) {
+    if (c.weight > best.weight) best = c;  // Ties keep the lowest id.
+    if (c.weight >= kCovisibilityMinWeight) edges.push_back(c);
+  }
+  if (edges.empty()) edges.push_back(best);
+
+  // Edges that disappear are removed on the other side too.
+  for (const KeyFrame::Connection& old : keyframe->connections()) {
+    const bool kept = std::any_of(edges.begin(), edges.end(), [&](const KeyFrame::Connection& e) {
+      return e.keyframe == old.keyframe;
+    });
+    if (!kept) old.keyframe->RemoveConnection(keyframe);
+  }
+  for (const KeyFrame::Connection& e : edges) e.keyframe->SetConnection(keyframe, e.weight);
+  keyframe->SetConnections(std::move(edges));
+
+  if (!keyframe->connected()) {
+    keyframe->set_connected();
+    if (keyframe != root_) keyframe->SetParent(keyframe->covisible().front());
+  }
+}
+
+bool Map::CullKeyFrame(KeyFrame* keyframe) {
+  KeyFrame* parent = keyframe->parent();
+  if (keyframe == root_ || parent == nullptr || keyframe->bad()) return false;
+  if (!keyframe->loop_edges().empty()) return false;
+  if (keyframe->in_use()) {
+    keyframe->set_cull_pending(true);
+    return false;
+  }
+
+  for (const KeyFrame::Connection& c : keyframe->connections()) {
+    c.keyframe->RemoveConnection(keyframe);
+  }
+  keyframe->ClearConnections();
+  for (size_t i = 0; i < keyframe->size(); ++i) {
+    if (MapPoint* point = keyframe->map_point(i)) EraseObservation(point, keyframe);
+  }
+
+  // Re-attach the children: repeatedly pick the (child, candidate) pair with
+  // the strongest covisibility, where candidates are the parent and the
+  // children already re-attached; the rest go to the parent.
+  std::vector<KeyFrame*> candidates = {parent};
+  std::vector<KeyFrame*> children = keyframe->children();
+  while (!children.empty()) {
+    int best_weight = -1;
+    KeyFrame* best_child = nullptr;
+    KeyFrame* best_parent = nullptr;
+    for (KeyFrame* child : children) {
+      if (child->bad()) continue;
+      for (KeyFrame* neighbour : child->covisible()) {
+        if (std::find(candidates.begin(), candidates.end(), neighbour) == candidates.end())
+          continue;
+        const int w = child->Weight(neighbour);
+        if (w > best_weight) {
+          best_weight = w;
+          best_child = child;
+          best_parent = neighbour;
+        }
+      }
+    }
+    if (best_child == nullptr) break;
+    best_child->SetParent(best_parent);
+    candidates.push_back(best_child);
+    children.erase(std::find(children.begin(), children.end(), best_child));
+  }
+  for (KeyFrame* child : children) child->SetParent(parent);
+  parent->RemoveChild(keyframe);
+
+  keyframe->MarkBad(keyframe->T_cam_world() * parent->T_world_cam());
+  uint8_t& in = keyframe_in_map_.at(keyframe->id());
+  if (in) {
+    in = 0;
+    --num_keyframes_;
+  }
+  return true;
+}
+
+bool Map::ReleaseKeyFrame(KeyFrame* keyframe) {
+  keyframe->set_in_use(false);
+  if (!keyframe->cull_pending()) return false;
+  keyframe->set_cull_pending(false);
+  return CullKeyFrame(keyframe);
+}
+
+}  // namespace rrslam

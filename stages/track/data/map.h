@@ -1,0 +1,111 @@
+// The sparse map: keyframes and map points with the operations that keep
+// their mutual references consistent (observations, covisibility graph,
+// spanning tree, culling and fusion).
+//
+// Ownership: Map creates and owns every keyframe and map point for its whole
+// lifetime, including culled ones (marked bad and removed from the map's
+// sets), so a pointer held by a frame, a keyframe or a matcher stays valid
+// until the Map is destroyed. Ids are dense integers in creation order.
+//
+// Determinism: every list returned and every internal iteration is ordered
+// by id (or by weight, then id), so the same operations give the same map.
+//
+// Thread-safety: in realtime mode the tracker and the local mapper run in two
+// threads; both hold mutex() for every access to map objects. (A map point's
+// or keyframe's fields are only read or written under that lock.) In batch
+// mode there is one thread and the lock is uncontended.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "stages/track/data/keyframe.h"
+#include "stages/track/data/map_point.h"
+
+namespace rrslam {
+
+// Minimum number of shared map points for a covisibility edge (ORB-SLAM2: 15).
+inline constexpr int kCovisibilityMinWeight = 15;
+
+class Map {
+ public:
+  Map() = default;
+  Map(const Map&) = delete;
+  Map& operator=(const Map&) = delete;
+
+  // Creates a keyframe from a frame (next keyframe id). It belongs to the
+  // Map but is not in the map until AddKeyFrame.
+  KeyFrame* CreateKeyFrame(const Frame& frame);
+  // Creates a map point (next id) observed by nobody yet; not in the map
+  // until AddMapPoint.
+  MapPoint* CreateMapPoint(const Eigen::Vector3d& position_world, KeyFrame* reference_keyframe);
+  void AddKeyFrame(KeyFrame* keyframe);
+  void AddMapPoint(MapPoint* point);
+
+  // Keyframes / map points in the map (not bad), ordered by id.
+  std::vector<KeyFrame*> KeyFrames() const;
+  std::vector<MapPoint*> MapPoints() const;
+  size_t num_keyframes() const { return num_keyframes_; }
+  size_t num_map_points() const { return num_map_points_; }
+  // Every keyframe ever created (including culled ones and those not yet
+  // added), indexed by id.
+  size_t num_created_keyframes() const { return keyframes_.size(); }
+  KeyFrame* keyframe_by_id(KeyFrameId id) const { return keyframes_.at(id).get(); }
+  size_t num_created_map_points() const { return map_points_.size(); }
+  // The first keyframe added: origin of the map and root of the spanning tree.
+  KeyFrame* root() const { return root_; }
+
+  // Associates keypoint `index` of `keyframe` with `point` on both sides.
+  void AddObservation(MapPoint* point, KeyFrame* keyframe, uint32_t index);
+  // Removes the association of `point` with `keyframe` on both sides; culls the
+  // point when fewer than three weighted observations remain (ORB-SLAM2).
+  void EraseObservation(MapPoint* point, KeyFrame* keyframe);
+  // Marks a point bad, removes all its observations and takes it out of the map.
+  void CullMapPoint(MapPoint* point);
+  // Fusion: every observation of `point` moves to `by` (dropped where `by` is
+  // already observed), counters are added, `point` leaves the map as
+  // replaced by `by`.
+  void ReplaceMapPoint(MapPoint* point, MapPoint* by);
+
+  // Recomputes `keyframe`'s covisibility edges from its map points: an edge to
+  // every keyframe sharing at least kCovisibilityMinWeight points, or to the
+  // one sharing most when none does; edges are kept symmetric. On the first
+  // call the best neighbour becomes the spanning-tree parent (except for the
+  // first keyframe of the map, the root).
+  void UpdateConnections(KeyFrame* keyframe);
+
+  // Culls a keyframe (ORB-SLAM2's KeyFrame::SetBadFlag): removes its edges and
+  // its observations (which may cull points), re-attaches its children in the
+  // spanning tree to the candidates with the strongest covisibility (its
+  // parent first, then the already re-attached children), records its pose
+  // relative to its parent and takes it out of the map. The root is never
+  // culled: returns false for it. Nor is a keyframe with loop edges (false),
+  // nor one in use by loop closing: that one is marked cull_pending (false)
+  // and culled by ReleaseKeyFrame.
+  bool CullKeyFrame(KeyFrame* keyframe);
+  // Loop closing is done with `keyframe`: clears in_use and performs a cull
+  // asked for meanwhile. Returns true when the keyframe was culled now.
+  bool ReleaseKeyFrame(KeyFrame* keyframe);
+
+  // Discards the whole map (ORB-SLAM2's reset): every keyframe and map point
+  // in it is marked bad and leaves the map; the next keyframe added becomes
+  // the root. The objects stay allocated (see Ownership), so pointers held
+  // elsewhere stay valid.
+  void Clear();
+
+  // The lock of realtime mode (see the file comment).
+  std::mutex& mutex() const { return mutex_; }
+
+ private:
+  std::vector<std::unique_ptr<KeyFrame>> keyframes_;   // Index = id.
+  std::vector<std::unique_ptr<MapPoint>> map_points_;  // Index = id.
+  std::vector<uint8_t> keyframe_in_map_;
+  std::vector<uint8_t> map_point_in_map_;
+  size_t num_keyframes_ = 0;
+  size_t num_map_points_ = 0;
+  KeyFrame* root_ = nullptr;
+  mutable std::mutex mutex_;
+};
+
+}  // namespace rrslam

@@ -1,0 +1,154 @@
+// Local mapping (ORB-SLAM2's LocalMapping, written anew): for every new
+// keyframe from the tracker
+//   1. insertion: bag of words, observations of its matched map points,
+//      covisibility and spanning-tree update, keyframe database;
+//   2. culling of recently created map points that are rarely found or seen
+//      by too few keyframes;
+//   3. new map points by triangulation with covisible keyframes (epipolar
+//      search, parallax and reprojection checks, scale consistency);
+//   4. fusion of duplicate map points with the neighbours;
+//   5. local bundle adjustment;
+//   6. culling of redundant keyframes.
+//
+// Two ways to run it:
+//  - batch: the caller runs ProcessKeyFrame() right after the tracker made the
+//    keyframe, in the same thread (deterministic);
+//  - realtime: Start() runs a thread that processes queued keyframes as they
+//    come; the tracker queues with Enqueue(), asks AcceptsKeyFrames() and
+//    InterruptBundleAdjustment() as ORB-SLAM2 does; Stop() finishes the queue
+//    and joins. Map objects are accessed under Map::mutex(), which is
+//    released while Ceres solves the bundle adjustment.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "stages/track/data/keyframe.h"
+#include "stages/track/data/keyframe_database.h"
+#include "stages/track/data/map.h"
+#include "stages/track/data/sensor_model.h"
+#include "stages/track/optimize/optimizer.h"
+
+namespace rrslam {
+
+struct LocalMapperOptions {
+  int triangulation_neighbours = 10;  // Best covisible keyframes to triangulate with.
+  int fusion_neighbours = 10;         // Best covisible keyframes to fuse with (plus 5 of each).
+  int culling_min_observers = 3;      // Redundancy: seen by at least this many other keyframes.
+  double culling_redundancy = 0.9;    // Fraction of close points that must be redundant.
+  int bow_levels_up = 4;              // Feature-vector grouping (TrackerOptions::bow_levels_up).
+  LocalBundleAdjustmentOptions bundle_adjustment;
+};
+
+// What happens to a recently created map point at a new keyframe.
+enum class RecentPointDecision {
+  kCull,     // Bad, found in < 25% of its predicted views, or too few observers after 2 keyframes.
+  kConfirm,  // Survived 3 keyframes: no longer watched.
+  kWatch,    // Keep watching.
+};
+RecentPointDecision ClassifyRecentPoint(const MapPoint& point, KeyFrameId current_keyframe_id);
+
+// True when at least `redundancy` of the keyframe's good map points with a
+// close depth (0 < depth <= th_depth) are each seen by at least `min_observers`
+// other keyframes at the same, a finer, or the next coarser octave
+// (ORB-SLAM2's KeyFrameCulling test).
+bool IsRedundantKeyFrame(const KeyFrame& keyframe, const SensorModel& sensor, int min_observers = 3,
+                         double redundancy = 0.9);
+
+struct LocalMappingCounters {
+  size_t keyframes = 0;  // Keyframes processed.
+  size_t culled_keyframes = 0;
+  size_t culled_points = 0;  // Recent points culled.
+  size_t triangulated_points = 0;
+  size_t fused_points = 0;
+  size_t bundle_adjustments = 0;
+  size_t aborted_bundle_adjustments = 0;
+  size_t max_queue = 0;                  // Longest keyframe queue seen (realtime).
+  SolveCounts bundle_adjustment_solves;  // Both passes of every local BA.
+  std::vector<double> keyframe_ms;       // Processing time of each keyframe.
+};
+
+class LocalMapper {
+ public:
+  // All references must outlive the mapper.
+  LocalMapper(const SensorModel& sensor, const Vocabulary& vocabulary, Map* map,
+              KeyFrameDatabase* database, const LocalMapperOptions& options = {});
+  ~LocalMapper();
+  LocalMapper(const LocalMapper&) = delete;
+  LocalMapper& operator=(const LocalMapper&) = delete;
+
+  // Batch mode: runs every step on `keyframe` now (takes the map lock per step).
+  void ProcessKeyFrame(KeyFrame* keyframe);
+  // Batch mode: processes the queued keyframes (from Enqueue) in order, now.
+  void ProcessQueued();
+
+  // Realtime mode.
+  void Start();
+  void Enqueue(KeyFrame* keyframe);
+  // False while a keyframe is being processed (ORB-SLAM2's AcceptKeyFrames).
+  bool AcceptsKeyFrames() const { return accepting_.load(); }
+  size_t QueueSize() const;
+  // Asks a running bundle adjustment to stop at its next iteration.
+  void InterruptBundleAdjustment() { abort_ba_.store(true); }
+  // Processes what is queued, then stops and joins the thread.
+  void Stop();
+  // For a map reset (the caller then clears the map): finishes the keyframe
+  // in progress, drops the queue and the recently created points it watches.
+  // A running thread is restarted. Call without holding the map lock.
+  void Reset();
+
+  // Called with each keyframe once processed (in the mapper's thread in
+  // realtime mode): hands it on to loop closing. Set before Start().
+  void SetKeyFrameSink(std::function<void(KeyFrame*)> sink) { sink_ = std::move(sink); }
+
+  // Realtime mode: Pause() returns once the mapper is between keyframes and
+  // keeps it there until the matching Resume() (loop correction, global BA;
+  // ORB-SLAM2's RequestStop / Release; pauses nest); keyframes queued
+  // meanwhile wait. No-ops in batch mode.
+  void Pause();
+  void Resume();
+
+  // Counters; read them after Stop() in realtime mode.
+  const LocalMappingCounters& counters() const { return counters_; }
+
+  // The steps, public for tests; the caller holds the map lock.
+  void InsertKeyFrame(KeyFrame* keyframe);
+  size_t CullRecentPoints(const KeyFrame* keyframe);
+  size_t TriangulateNewPoints(KeyFrame* keyframe, bool check_queue);
+  size_t FuseWithNeighbours(KeyFrame* keyframe);
+  size_t CullRedundantKeyFrames(const KeyFrame* keyframe);
+
+ private:
+  void Run();
+  void Process(KeyFrame* keyframe, bool realtime);
+  bool HasQueued() const;
+
+  const SensorModel& sensor_;
+  const Vocabulary& vocabulary_;
+  Map* map_;
+  KeyFrameDatabase* database_;
+  LocalMapperOptions options_;
+  LocalBundleAdjuster adjuster_;
+  std::vector<MapPoint*> recent_points_;
+  LocalMappingCounters counters_;
+
+  mutable std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::deque<KeyFrame*> queue_;
+  bool stop_requested_ = false;
+  int pauses_ = 0;                    // Pause() calls not yet resumed.
+  bool busy_ = false;                 // Processing a keyframe (realtime).
+  std::atomic<bool> running_{false};  // Between Start() and the end of Stop().
+  std::condition_variable idle_cv_;
+  std::function<void(KeyFrame*)> sink_;
+  std::atomic<bool> accepting_{true};
+  std::atomic<bool> abort_ba_{false};
+  std::thread thread_;
+};
+
+}  // namespace rrslam

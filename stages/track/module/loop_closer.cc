@@ -1,0 +1,527 @@
+#include "stages/track/module/loop_closer.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <unordered_map>
+
+#include "stages/track/match/matcher.h"
+
+namespace rrslam {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MillisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// The current point a fused one stands for.
+MapPoint* Survivor(MapPoint* point) {
+  while (point != nullptr && point->bad() && point->replaced_by() != nullptr) {
+    point = point->replaced_by();
+  }
+  return point;
+}
+
+}  // namespace
+
+LoopCloser::LoopCloser(const SensorModel& sensor, const Vocabulary& vocabulary, Map* map,
+                       KeyFrameDatabase* database, LocalMapper* mapper,
+                       const LoopClosingOptions& options)
+    : sensor_(sensor),
+      vocabulary_(vocabulary),
+      map_(map),
+      database_(database),
+      mapper_(mapper),
+      options_(options) {}
+
+LoopCloser::~LoopCloser() {
+  if (thread_.joinable()) Stop();
+  StopGlobalBundleAdjustment();
+}
+
+void LoopCloser::Enqueue(KeyFrame* keyframe) {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    queue_.push_back(keyframe);
+  }
+  queue_cv_.notify_one();
+}
+
+void LoopCloser::ProcessQueued() {
+  while (true) {
+    KeyFrame* keyframe;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      if (queue_.empty()) return;
+      keyframe = queue_.front();
+      queue_.pop_front();
+    }
+    Process(keyframe);
+  }
+}
+
+void LoopCloser::Start() {
+  realtime_ = true;
+  stop_requested_ = false;
+  thread_ = std::thread([this] { Run(); });
+}
+
+void LoopCloser::Run() {
+  while (true) {
+    KeyFrame* keyframe;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      queue_cv_.wait(lock, [this] { return stop_requested_ || !queue_.empty(); });
+      if (queue_.empty()) return;
+      keyframe = queue_.front();
+      queue_.pop_front();
+    }
+    Process(keyframe);
+  }
+}
+
+void LoopCloser::Stop() {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stop_requested_ = true;
+  }
+  queue_cv_.notify_one();
+  if (thread_.joinable()) thread_.join();
+  // The last global BA is let finish (batch mode has none running).
+  if (ba_thread_.joinable()) ba_thread_.join();
+  realtime_ = false;
+}
+
+void LoopCloser::Reset() {
+  const bool running = thread_.joinable();
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    queue_.clear();
+  }
+  // A global BA running now (or started by a correction in progress) is
+  // aborted: its map is being discarded.
+  abort_ba_.store(true);
+  if (running) Stop();
+  if (ba_thread_.joinable()) ba_thread_.join();
+  abort_ba_.store(false);
+  consistent_groups_.clear();
+  accepted_candidates_.clear();
+  last_loop_keyframe_ = 0;
+  any_loop_ = false;
+  loop_ = {};
+  if (running) Start();
+}
+
+void LoopCloser::StopGlobalBundleAdjustment() {
+  if (!ba_thread_.joinable()) return;
+  abort_ba_.store(true);
+  ba_thread_.join();
+  abort_ba_.store(false);
+}
+
+void LoopCloser::Process(KeyFrame* keyframe) {
+  const auto start = Clock::now();
+  {
+    std::lock_guard<std::mutex> lock(map_->mutex());
+    if (keyframe->bad()) return;
+  }
+  ++counters_.keyframes;
+  const bool detected = DetectLoop(keyframe);
+  const bool closes = detected && ComputeLoopTransform(keyframe);
+  counters_.detection_ms.push_back(MillisecondsSince(start));
+  if (detected) ++counters_.detections;
+  if (detected && !closes) ++counters_.geometric_fails;
+  if (closes) CorrectLoop(keyframe);
+}
+
+bool LoopCloser::DetectLoop(KeyFrame* keyframe) {
+  std::lock_guard<std::mutex> lock(map_->mutex());
+  accepted_candidates_.clear();
+  keyframe->set_in_use(true);
+  auto release = [&] {
+    if (map_->ReleaseKeyFrame(keyframe)) database_->Erase(keyframe);
+    return false;
+  };
+  if (static_cast<int>(map_->num_keyframes()) <= options_.min_map_keyframes ||
+      (any_loop_ && keyframe->id() < last_loop_keyframe_ +
+                                         static_cast<KeyFrameId>(options_.keyframes_after_loop))) {
+    return release();
+  }
+  // The bar: the lowest similarity of the keyframe to its covisible keyframes.
+  double min_score = 1;
+  for (const KeyFrame* neighbour : keyframe->covisible()) {
+    if (neighbour->bad()) continue;
+    min_score = std::min(min_score, vocabulary_.Score(keyframe->bow(), neighbour->bow()));
+  }
+  const std::vector<KeyFrame*> candidates = database_->DetectLoopCandidates(*keyframe, min_score);
+  spdlog::debug(
+      "loop detection: keyframe {} (frame {}): {} covisible, min score {:.4f}, {} candidates{}",
+      keyframe->id(), keyframe->frame_id(), keyframe->covisible().size(), min_score,
+      candidates.size(),
+      candidates.empty() ? "" : fmt::format(" (first {})", candidates.front()->id()));
+  if (candidates.empty()) {
+    consistent_groups_.clear();
+    return release();
+  }
+
+  // Consistency with the groups of the previous keyframes' candidates.
+  std::vector<Group> current_groups;
+  std::vector<uint8_t> group_continued(consistent_groups_.size(), 0);
+  for (KeyFrame* candidate : candidates) {
+    Group group{{candidate->id()}, 0};
+    for (const KeyFrame::Connection& c : candidate->connections()) {
+      group.keyframes.insert(c.keyframe->id());
+    }
+    bool enough = false;
+    bool consistent_with_any = false;
+    for (size_t g = 0; g < consistent_groups_.size(); ++g) {
+      const std::set<KeyFrameId>& previous = consistent_groups_[g].keyframes;
+      const bool shares = std::any_of(group.keyframes.begin(), group.keyframes.end(),
+                                      [&](KeyFrameId id) { return previous.count(id) > 0; });
+      if (!shares) continue;
+      consistent_with_any = true;
+      const int consistency = consistent_groups_[g].consistency + 1;
+      if (!group_continued[g]) {
+        current_groups.push_back({group.keyframes, consistency});
+        group_continued[g] = 1;
+      }
+      if (consistency >= options_.consistency && !enough) {
+        accepted_candidates_.push_back(candidate);
+        enough = true;
+      }
+    }
+    if (!consistent_with_any) current_groups.push_back(group);
+  }
+  consistent_groups_ = std::move(current_groups);
+  if (accepted_candidates_.empty()) return release();
+  return true;
+}
+
+bool LoopCloser::CheckCandidate(KeyFrame* keyframe, KeyFrame* candidate,
+                                LoopCandidateMatch* match) const {
+  *match = {};
+  if (candidate->bad()) return false;
+  const Matcher bow_matcher(sensor_, options_.bow_ratio, true);
+  const Matcher guided_matcher(sensor_, 0.75, true);
+  std::vector<MapPoint*> matches;
+  match->bow_matches = bow_matcher.SearchByBow(*keyframe, *candidate, &matches);
+  if (match->bow_matches < options_.min_bow_matches) return false;
+
+  // Correspondences with both points observed where they were matched.
+  std::vector<size_t> index;
+  std::vector<Eigen::Vector3d> points1, points2;
+  std::vector<double> sigma2_1, sigma2_2;
+  for (size_t i = 0; i < matches.size(); ++i) {
+    MapPoint* p2 = matches[i];
+    const MapPoint* p1 = keyframe->map_point(i);
+    if (p2 == nullptr || p1 == nullptr || p1->bad() || p2->bad()) continue;
+    const int i2 = p2->IndexIn(candidate);
+    if (i2 < 0 || p1->IndexIn(keyframe) < 0) continue;
+    index.push_back(i);
+    points1.push_back(keyframe->ToCamera(p1->position_world()));
+    points2.push_back(candidate->ToCamera(p2->position_world()));
+    sigma2_1.push_back(sensor_.pyramid.sigma2[keyframe->features().Octave(i)]);
+    sigma2_2.push_back(sensor_.pyramid.sigma2[candidate->features().Octave(i2)]);
+  }
+  Eigen::Matrix3d K;
+  K << sensor_.fx, 0, sensor_.cx, 0, sensor_.fy, sensor_.cy, 0, 0, 1;
+  const uint64_t seed = (keyframe->id() << 20) ^ candidate->id();
+  const RigidRansacResult ransac =
+      SolveRigidRansac(points1, points2, sigma2_1, sigma2_2, K, options_.ransac, seed);
+  match->ransac_inliers = ransac.inliers;
+  if (!ransac.ok) return false;
+
+  std::vector<MapPoint*> inlier_matches(keyframe->size(), nullptr);
+  for (size_t k = 0; k < index.size(); ++k) {
+    if (ransac.inlier[k]) inlier_matches[index[k]] = matches[index[k]];
+  }
+  Rigid3d T_12 = ransac.T_12;
+  guided_matcher.SearchByRelativePose(*keyframe, *candidate, T_12, options_.guided_radius,
+                                      &inlier_matches);
+  match->inliers = OptimizeRelativePose(sensor_, *keyframe, *candidate, &inlier_matches, &T_12,
+                                        options_.relative_pose_chi2);
+  if (match->inliers < options_.min_optimized_inliers) return false;
+
+  match->matched = candidate;
+  match->T_cam_world = T_12 * candidate->T_cam_world();
+  // The map points around the candidate, projected with the corrected pose.
+  std::vector<KeyFrame*> loop_keyframes = candidate->covisible();
+  loop_keyframes.push_back(candidate);
+  std::vector<uint8_t> taken(map_->num_created_map_points(), 0);
+  for (KeyFrame* kf : loop_keyframes) {
+    if (kf->bad()) continue;
+    for (MapPoint* point : kf->map_points()) {
+      if (point == nullptr || point->bad() || taken[point->id()]) continue;
+      taken[point->id()] = 1;
+      match->loop_points.push_back(point);
+    }
+  }
+  guided_matcher.SearchByProjection(*keyframe, match->T_cam_world, match->loop_points,
+                                    options_.projection_radius, &inlier_matches);
+  match->matches = static_cast<int>(std::count_if(inlier_matches.begin(), inlier_matches.end(),
+                                                  [](MapPoint* p) { return p != nullptr; }));
+  match->matched_points = std::move(inlier_matches);
+  return true;
+}
+
+bool LoopCloser::ComputeLoopTransform(KeyFrame* keyframe) {
+  std::lock_guard<std::mutex> lock(map_->mutex());
+  for (KeyFrame* candidate : accepted_candidates_) candidate->set_in_use(true);
+  // The first candidate that passes the relative-pose optimization decides.
+  loop_ = {};
+  for (KeyFrame* candidate : accepted_candidates_) {
+    const bool passed = CheckCandidate(keyframe, candidate, &loop_);
+    spdlog::debug(
+        "loop check: keyframe {} (frame {}) with {} (frame {}): {} BoW matches, {} RANSAC "
+        "inliers, {} optimized inliers, {} matches",
+        keyframe->id(), keyframe->frame_id(), candidate->id(), candidate->frame_id(),
+        loop_.bow_matches, loop_.ransac_inliers, loop_.inliers, loop_.matches);
+    if (passed) break;
+  }
+  if (loop_.matched == nullptr || loop_.matches < options_.min_loop_matches) {
+    loop_ = {};
+    ReleaseCandidates(nullptr);
+    if (map_->ReleaseKeyFrame(keyframe)) database_->Erase(keyframe);
+    return false;
+  }
+  ReleaseCandidates(loop_.matched);
+  return true;
+}
+
+void LoopCloser::ReleaseCandidates(const KeyFrame* keep) {
+  for (KeyFrame* candidate : accepted_candidates_) {
+    if (candidate == keep) continue;
+    if (map_->ReleaseKeyFrame(candidate)) database_->Erase(candidate);
+  }
+}
+
+void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
+  const auto start = Clock::now();
+  // A global BA of an earlier loop still running is outdated by this one: it
+  // is aborted (and records so itself).
+  StopGlobalBundleAdjustment();
+  mapper_->Pause();
+  size_t loop_index;
+  {
+    std::lock_guard<std::mutex> lock(map_->mutex());
+    map_->UpdateConnections(keyframe);
+    const Rigid3d T_before = keyframe->T_cam_world();
+
+    // The keyframe and its neighbours, moved by the loop correction.
+    std::vector<KeyFrame*> moved = keyframe->covisible();
+    moved.push_back(keyframe);
+    std::sort(moved.begin(), moved.end(), IdLess());
+    std::vector<Rigid3d> corrected(moved.size()), non_corrected(moved.size());
+    const Rigid3d T_world_cam = keyframe->T_world_cam();
+    for (size_t k = 0; k < moved.size(); ++k) {
+      non_corrected[k] = moved[k]->T_cam_world();
+      corrected[k] = moved[k] == keyframe
+                         ? loop_.T_cam_world
+                         : moved[k]->T_cam_world() * T_world_cam * loop_.T_cam_world;
+    }
+    // Their points move with them (each once, with the first keyframe seeing it).
+    const KeyFrameId none = static_cast<KeyFrameId>(-1);
+    std::vector<KeyFrameId> corrected_reference(map_->num_created_map_points(), none);
+    for (size_t k = 0; k < moved.size(); ++k) {
+      const Rigid3d T_world_corrected = corrected[k].Inverse();
+      for (MapPoint* point : moved[k]->map_points()) {
+        if (point == nullptr || point->bad() || corrected_reference[point->id()] != none) continue;
+        point->SetPosition(T_world_corrected * (non_corrected[k] * point->position_world()));
+        corrected_reference[point->id()] = moved[k]->id();
+        point->UpdateNormalAndDepth(sensor_.pyramid);
+      }
+      moved[k]->SetPose(corrected[k]);
+      map_->UpdateConnections(moved[k]);
+    }
+
+    // The loop's matched points replace the keyframe's own.
+    for (size_t i = 0; i < loop_.matched_points.size(); ++i) {
+      MapPoint* loop_point = Survivor(loop_.matched_points[i]);
+      if (loop_point == nullptr || loop_point->bad()) continue;
+      MapPoint* current = keyframe->map_point(i);
+      if (current != nullptr && !current->bad()) {
+        map_->ReplaceMapPoint(current, loop_point);
+      } else if (!loop_point->IsObservedBy(keyframe)) {
+        map_->AddObservation(loop_point, keyframe, static_cast<uint32_t>(i));
+        loop_point->ComputeDistinctiveDescriptor();
+      }
+    }
+    // The loop points fused into the moved keyframes.
+    const Matcher matcher(sensor_, 0.8, true);
+    std::vector<MapPoint*> replace;
+    for (KeyFrame* kf : moved) {
+      if (kf->bad()) continue;
+      matcher.FuseForLoop(kf, loop_.loop_points, map_, options_.fuse_radius, &replace);
+      for (size_t p = 0; p < replace.size(); ++p) {
+        MapPoint* survivor = Survivor(loop_.loop_points[p]);
+        if (replace[p] == nullptr || replace[p]->bad() || survivor == nullptr || survivor->bad()) {
+          continue;
+        }
+        map_->ReplaceMapPoint(replace[p], survivor);
+      }
+    }
+
+    // The links the fusion made are the loop connections.
+    std::vector<std::vector<KeyFrame*>> loop_connections(moved.size());
+    for (size_t k = 0; k < moved.size(); ++k) {
+      if (moved[k]->bad()) continue;
+      const std::vector<KeyFrame*> previous = moved[k]->covisible();
+      map_->UpdateConnections(moved[k]);
+      for (const KeyFrame::Connection& c : moved[k]->connections()) {
+        const bool old = std::find(previous.begin(), previous.end(), c.keyframe) != previous.end();
+        const bool neighbour = std::binary_search(moved.begin(), moved.end(), c.keyframe, IdLess());
+        if (!old && !neighbour) loop_connections[k].push_back(c.keyframe);
+      }
+    }
+
+    OptimizeEssentialGraph(keyframe, moved, non_corrected, loop_connections, corrected_reference);
+
+    loop_.matched->AddLoopEdge(keyframe);
+    keyframe->AddLoopEdge(loop_.matched);
+    map_->ReleaseKeyFrame(loop_.matched);
+    map_->ReleaseKeyFrame(keyframe);
+    last_loop_keyframe_ = keyframe->id();
+    any_loop_ = true;
+
+    LoopClosure& record = pending_;
+    record = {};
+    record.bow_matches = loop_.bow_matches;
+    record.ransac_inliers = loop_.ransac_inliers;
+    record.optimized_inliers = loop_.inliers;
+    record.matches = loop_.matches;
+    pending_.keyframe = keyframe->id();
+    pending_.matched = loop_.matched->id();
+    pending_.frame = keyframe->frame_id();
+    pending_.matched_frame = loop_.matched->frame_id();
+    const Rigid3d& T_after = keyframe->T_cam_world();
+    pending_.correction_m = (T_after.Inverse().translation - T_before.Inverse().translation).norm();
+    pending_.correction_deg = RotationAngle(T_after.rotation, T_before.rotation) * 180.0 / M_PI;
+    pending_.correction_ms = MillisecondsSince(start);
+    std::lock_guard<std::mutex> counters_lock(counters_mutex_);
+    counters_.loops.push_back(pending_);
+    loop_index = counters_.loops.size() - 1;
+  }
+  mapper_->Resume();
+  spdlog::info(
+      "loop closing: keyframe {} (frame {}) closes a loop with keyframe {} (frame {}): "
+      "{} matches, correction {:.3f} m, {:.2f} deg",
+      pending_.keyframe, pending_.frame, pending_.matched, pending_.matched_frame, pending_.matches,
+      pending_.correction_m, pending_.correction_deg);
+  loop_ = {};
+
+  if (!options_.global_bundle_adjustment) return;
+  if (realtime_) {
+    ba_thread_ = std::thread([this, loop_index] { RunGlobalBundleAdjustment(loop_index, true); });
+  } else {
+    RunGlobalBundleAdjustment(loop_index, false);
+  }
+}
+
+void LoopCloser::OptimizeEssentialGraph(KeyFrame* keyframe, const std::vector<KeyFrame*>& moved,
+                                        const std::vector<Rigid3d>& non_corrected,
+                                        const std::vector<std::vector<KeyFrame*>>& loop_connections,
+                                        const std::vector<KeyFrameId>& corrected_reference) {
+  const std::vector<KeyFrame*> keyframes = map_->KeyFrames();
+  const size_t n = map_->num_created_keyframes();
+  std::vector<int> vertex(n, -1);
+  std::vector<int> moved_index(n, -1);
+  for (size_t k = 0; k < moved.size(); ++k) moved_index[moved[k]->id()] = static_cast<int>(k);
+  PoseGraph graph;
+  // Initial estimates: corrected poses for the moved keyframes (already set),
+  // the current ones elsewhere. The matched loop keyframe is fixed.
+  for (KeyFrame* kf : keyframes) {
+    vertex[kf->id()] = graph.AddVertex(kf->T_cam_world(), kf == loop_.matched);
+  }
+  const std::vector<Rigid3d> initial = graph.poses;
+  // Pose of a keyframe before the correction.
+  auto before = [&](const KeyFrame* kf) {
+    const int m = moved_index[kf->id()];
+    return m >= 0 ? non_corrected[m] : initial[vertex[kf->id()]];
+  };
+  std::set<std::pair<KeyFrameId, KeyFrameId>> inserted;
+  auto pair_of = [](const KeyFrame* a, const KeyFrame* b) {
+    return std::make_pair(std::min(a->id(), b->id()), std::max(a->id(), b->id()));
+  };
+  // Loop connections, from the corrected estimates.
+  for (size_t k = 0; k < moved.size(); ++k) {
+    KeyFrame* ki = moved[k];
+    if (ki->bad() || vertex[ki->id()] < 0) continue;
+    for (KeyFrame* kj : loop_connections[k]) {
+      if (kj->bad() || vertex[kj->id()] < 0) continue;
+      if ((ki != keyframe || kj != loop_.matched) &&
+          ki->Weight(kj) < options_.essential_graph_min_weight) {
+        continue;
+      }
+      const int i = vertex[ki->id()], j = vertex[kj->id()];
+      graph.edges.push_back({i, j, initial[j] * initial[i].Inverse()});
+      inserted.insert(pair_of(ki, kj));
+    }
+  }
+  // Spanning tree, earlier loop edges, strong covisibility: from the poses
+  // before the correction.
+  for (KeyFrame* ki : keyframes) {
+    const int i = vertex[ki->id()];
+    const Rigid3d T_world_i = before(ki).Inverse();
+    auto add = [&](KeyFrame* kj) {
+      graph.edges.push_back({i, vertex[kj->id()], before(kj) * T_world_i});
+    };
+    KeyFrame* parent = ki->parent();
+    if (parent != nullptr && !parent->bad() && vertex[parent->id()] >= 0) add(parent);
+    for (KeyFrame* l : ki->loop_edges()) {
+      if (!l->bad() && vertex[l->id()] >= 0 && l->id() < ki->id()) add(l);
+    }
+    for (KeyFrame* kn : ki->CovisibleWithWeight(options_.essential_graph_min_weight)) {
+      if (kn == parent || kn->bad() || vertex[kn->id()] < 0 || kn->id() >= ki->id()) continue;
+      if (kn->parent() == ki) continue;  // A child: its tree edge is there.
+      const auto& loops = ki->loop_edges();
+      if (std::find(loops.begin(), loops.end(), kn) != loops.end()) continue;
+      if (inserted.count(pair_of(ki, kn))) continue;
+      add(kn);
+    }
+  }
+  OptimizePoseGraph(&graph, options_.essential_graph_iterations, &counters_.essential_graph);
+
+  for (KeyFrame* kf : keyframes) kf->SetPose(graph.poses[vertex[kf->id()]]);
+  // Points move with the keyframe that corrected them, or their reference.
+  const KeyFrameId none = static_cast<KeyFrameId>(-1);
+  for (MapPoint* point : map_->MapPoints()) {
+    KeyFrameId ref = corrected_reference[point->id()];
+    if (ref == none) {
+      const KeyFrame* reference = point->reference_keyframe();
+      if (reference == nullptr) continue;
+      ref = reference->id();
+    }
+    const int v = vertex[ref];
+    if (v < 0) continue;
+    point->SetPosition(graph.poses[v].Inverse() * (initial[v] * point->position_world()));
+    point->UpdateNormalAndDepth(sensor_.pyramid);
+  }
+}
+
+void LoopCloser::RunGlobalBundleAdjustment(size_t loop_index, bool realtime) {
+  const auto start = Clock::now();
+  GlobalBundleAdjuster adjuster(sensor_, options_.global_ba_iterations);
+  {
+    std::lock_guard<std::mutex> lock(map_->mutex());
+    adjuster.Collect(*map_);
+  }
+  adjuster.Solve(realtime ? &abort_ba_ : nullptr);
+  if (!adjuster.stats().aborted) {
+    mapper_->Pause();
+    {
+      std::lock_guard<std::mutex> lock(map_->mutex());
+      adjuster.Apply(map_);
+    }
+    mapper_->Resume();
+  }
+  std::lock_guard<std::mutex> counters_lock(counters_mutex_);
+  counters_.global_ba += adjuster.stats().solves;
+  counters_.loops[loop_index].global_ba_ms = MillisecondsSince(start);
+  counters_.loops[loop_index].global_ba_aborted = adjuster.stats().aborted;
+}
+
+}  // namespace rrslam

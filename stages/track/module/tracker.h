@@ -1,0 +1,177 @@
+// Per-frame camera tracking against the map (ORB-SLAM2's Tracking for RGB-D,
+// written anew):
+//  - initialization from the first frame with enough keypoints with depth
+//    (its camera is the world frame; one map point per such keypoint);
+//  - constant-velocity motion model with projection search from the last
+//    frame, falling back to BoW matching against the reference keyframe;
+//  - local-map tracking: local keyframes (observers of the matched points and
+//    their covisibility neighbours), their map points projected and matched,
+//    then pose-only optimization;
+//  - keyframe decision and creation with new map points from close depth.
+// When tracking fails the frame is lost; each following frame is relocalized
+// against the whole map (relocalizer.h) until one succeeds; lost with at most
+// 5 keyframes in the map, the map is reset instead (ORB-SLAM2).
+//
+// Thread-safety: Track() is called from one thread; it holds Map::mutex()
+// while it touches the map, so it can run beside a realtime LocalMapper.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "stages/track/data/frame.h"
+#include "stages/track/data/keyframe.h"
+#include "stages/track/data/map.h"
+#include "stages/track/data/sensor_model.h"
+#include "stages/track/match/matcher.h"
+#include "stages/track/module/local_mapper.h"
+#include "stages/track/module/relocalizer.h"
+#include "stages/track/optimize/optimizer.h"
+
+namespace rrslam {
+
+// Defaults are ORB-SLAM2's RGB-D values. Fields marked "departure" select a
+// behaviour of rrslam's own; docs/track.md ("Departures from ORB-SLAM2") has
+// the measurements that decide their defaults.
+struct TrackerOptions {
+  // Initialization: the first frame with more than this many keypoints
+  // (ORB-SLAM2: N > 500); its keypoints with depth become map points. A guard
+  // of rrslam's: at least min_initial_points of them must have depth (ORB-SLAM2
+  // would make a map without points, lose the next frame and reset, forever,
+  // on a sequence without depth).
+  int min_initial_keypoints = 500;
+  int min_initial_points = 50;
+  // Motion-model search window, pixels at level 0 times the scale of the last
+  // frame's keypoint; doubled on the retry when fewer than min_motion_matches
+  // are found. ORB-SLAM2 uses 15 for RGB-D (7 is its stereo value).
+  double motion_search_radius = 15.0;
+  // Local-map search window factor (ORB-SLAM2's th for RGB-D: 3; its
+  // monocular value is 1), and within two frames of a relocalization (5).
+  double local_map_search_radius = 3.0;
+  double local_map_search_radius_relocalized = 5.0;
+  int min_motion_matches = 20;     // Projection matches needed before pose optimization.
+  int min_bow_matches = 15;        // BoW matches needed to track the reference keyframe.
+  int min_pose_inliers = 10;       // Map inliers needed after either pose optimization.
+  int min_local_map_inliers = 30;  // After local-map tracking.
+  int min_local_map_inliers_relocalized =
+      50;  // ... within max_keyframe_gap frames of a relocalization.
+  // Keyframe decision (ORB-SLAM2): at most this many frames without a keyframe
+  // (the camera frame rate), ...
+  int max_keyframe_gap = 30;
+  // ... and a keyframe is needed when fewer than `close_tracked` close points
+  // are tracked while more than `close_untracked` could be created.
+  // ORB-SLAM2: 100. Departure: 300 (denser keyframes).
+  int close_tracked = 100;
+  int close_untracked = 70;
+  double reference_ratio = 0.75;  // Inliers / reference keyframe's tracked points.
+  int new_keyframe_points = 100;  // Close-depth points a new keyframe gets at least.
+  // Local keyframes: ORB-SLAM2 adds a best covisible keyframe, a child and the
+  // parent of each keyframe observing the frame's points, in id order, but its
+  // loop ends at the first parent added (a quirk of its code). Departure
+  // (true): add the neighbours of every observing keyframe.
+  bool expand_all_local_keyframes = false;
+  // Vocabulary levels above the words whose nodes group features for BoW
+  // search (ORB-SLAM2: 4; see FeatureVectorLevelsUp).
+  int bow_levels_up = 4;
+  // Lost with at most this many keyframes in the map: the map is discarded
+  // and tracking initializes again (ORB-SLAM2's reset; the caller does it when
+  // reset_requested() is true). Negative: never.
+  int reset_max_keyframes = 5;
+};
+
+// Pose of a frame as recorded for the trajectory: relative to its reference
+// keyframe, resolved against the final keyframe poses when written out.
+struct TrackedFrame {
+  uint64_t frame_id = 0;
+  double timestamp = 0;
+  bool tracked = false;
+  KeyFrame* reference = nullptr;  // Valid when tracked.
+  Rigid3d T_cam_reference;        // Valid when tracked.
+};
+
+class Tracker {
+ public:
+  enum class State { kNotInitialized, kOk, kLost };
+
+  // All references must outlive the tracker. `mapper` receives the new
+  // keyframes through LocalMapper::Enqueue(); `database` (filled by the
+  // mapper) gives relocalization candidates.
+  Tracker(const SensorModel& sensor, const Vocabulary& vocabulary, Map* map, LocalMapper* mapper,
+          const KeyFrameDatabase& database, const TrackerOptions& options = {});
+
+  // Tracks one frame (frames must come in order). Returns true when the frame
+  // got a pose. `new_keyframe` (optional) tells whether it made a keyframe.
+  bool Track(Frame frame, bool* new_keyframe = nullptr);
+
+  State state() const { return state_; }
+  const std::vector<TrackedFrame>& records() const { return records_; }
+  const Frame& last_frame() const { return last_frame_; }
+  // Frames relocalized after being lost.
+  size_t relocalizations() const { return relocalizations_; }
+  // Duration of every relocalization attempt (successful or not), ms.
+  const std::vector<double>& relocalization_ms() const { return relocalization_ms_; }
+  // True after a frame was lost with at most reset_max_keyframes keyframes in
+  // the map. The caller then clears the mapper, the map and the keyframe
+  // database and calls Reset() (ORB-SLAM2's System::Reset).
+  bool reset_requested() const { return reset_requested_; }
+  // Forgets the map: the next frame initializes a new one. Frames tracked
+  // before are marked lost (their poses referred to the discarded map).
+  void Reset();
+  size_t resets() const { return resets_; }
+  // The pose optimizations' solves so far.
+  const SolveCounts& pose_solves() const { return pose_solves_; }
+
+ private:
+  bool Initialize();
+  void ReplaceInLastFrame();
+  bool TrackWithMotionModel();
+  // BoW matching against the reference keyframe from the last frame's pose.
+  bool TrackReferenceKeyFrame();
+  bool Relocalize();
+  bool TrackLocalMap();
+  void UpdateLocalKeyFrames();
+  void UpdateLocalPoints();
+  int SearchLocalPoints();
+  bool NeedNewKeyFrame() const;
+  void CreateNewKeyFrame();
+  int DiscardOutliers();
+
+  const SensorModel& sensor_;
+  const Vocabulary& vocabulary_;
+  Map* map_;
+  LocalMapper* mapper_;
+  TrackerOptions options_;
+
+  State state_ = State::kNotInitialized;
+  Frame current_;
+  Frame last_frame_;
+  std::optional<Rigid3d> velocity_;  // T_cam_last: current pose times last pose inverse.
+  std::optional<Rigid3d> last_good_T_cam_world_;
+  KeyFrame* reference_keyframe_ = nullptr;
+  uint64_t last_keyframe_frame_id_ = 0;
+  // ORB-SLAM2's mnLastRelocFrameId: the frame of the last relocalization, or
+  // of the initialization (which ORB-SLAM2 treats alike: frame 0).
+  uint64_t relocalized_frame_id_ = 0;
+  bool RecentlyRelocalized(uint64_t frames) const {
+    return current_.id() < relocalized_frame_id_ + frames;
+  }
+  size_t relocalizations_ = 0;
+  std::vector<double> relocalization_ms_;
+  Relocalizer relocalizer_;
+  bool reset_requested_ = false;
+  SolveCounts pose_solves_;
+  size_t resets_ = 0;
+  int matches_inliers_ = 0;
+
+  std::vector<KeyFrame*> local_keyframes_;
+  std::vector<MapPoint*> local_points_;
+  // Per-id marks for the local map of the current frame (frame id + 1).
+  std::vector<uint64_t> keyframe_mark_;
+  std::vector<uint64_t> point_mark_;  // In local_points_.
+  std::vector<uint64_t> seen_mark_;   // Matched (or rejected) in the current frame.
+  bool last_frame_tracked_ = false;
+  std::vector<TrackedFrame> records_;
+};
+
+}  // namespace rrslam
