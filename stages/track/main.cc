@@ -34,8 +34,9 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
   app.add_option("--extraction-threads", o->extraction_threads,
                  "Threads of the ORB extractor (does not change the result)")
       ->capture_default_str();
-  app.add_flag("--no-loop-closing{false}", o->loop_closing,
-               "Turn loop closing (and its global bundle adjustment) off");
+  app.add_flag_callback(
+      "--no-loop-closing", [o] { o->loop_closing = false; },
+      "Turn loop closing (and its global bundle adjustment) off");
   // Departures from ORB-SLAM2; docs/track.md gives the measurements.
   app.add_option("--close-tracked", o->close_tracked,
                  "Keyframe when fewer close points are tracked (ORB-SLAM2: 100)")

@@ -152,6 +152,22 @@ TEST_F(TrackToolTest, LostSoonAfterInitializationResetsTheMap) {
   EXPECT_EQ(run.at("counts").at("keyframes").get<int>(), 1);
 }
 
+TEST_F(TrackToolTest, LoopClosingIsOnByDefaultAndCanBeTurnedOff) {
+  const auto help = RunTool("track", "--help");
+  EXPECT_NE(help.output.find("--no-loop-closing "), std::string::npos) << help.output;
+  ASSERT_EQ(Track(Seq(), SettingsFile(), Voc()).exit_code, 0);
+  nlohmann::json run = nlohmann::json::parse(ReadFileToString(out() / "run.json"));
+  EXPECT_TRUE(run.at("options").at("loop_closing").get<bool>());
+  EXPECT_TRUE(run.at("loop_closing").at("enabled").get<bool>());
+  EXPECT_EQ(run.at("counts").at("loop_closures").get<int>(), 0);
+  EXPECT_TRUE(run.at("loop_closing").at("loops").empty());
+  ASSERT_EQ(Track(Seq(), SettingsFile(), Voc(), "--no-loop-closing").exit_code, 0);
+  run = nlohmann::json::parse(ReadFileToString(out() / "run.json"));
+  EXPECT_FALSE(run.at("options").at("loop_closing").get<bool>());
+  EXPECT_FALSE(run.at("loop_closing").at("enabled").get<bool>());
+  EXPECT_EQ(run.at("loop_closing").at("keyframes_checked").get<int>(), 0);
+}
+
 TEST_F(TrackToolTest, FailureKeepsAnExistingOutputFolder) {
   fs::create_directories(out());
   WriteTextFile(out() / "CameraTrajectory.txt", "previous\n");
