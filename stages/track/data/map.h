@@ -10,10 +10,11 @@
 // Determinism: every list returned and every internal iteration is ordered
 // by id (or by weight, then id), so the same operations give the same map.
 //
-// Thread-safety: in realtime mode the tracker and the local mapper run in two
-// threads; both hold mutex() for every access to map objects. (A map point's
-// or keyframe's fields are only read or written under that lock.) In batch
-// mode there is one thread and the lock is uncontended.
+// Thread-safety: in realtime mode the tracker, the local mapper, the loop
+// closer and the global bundle adjustment run in threads of their own; each
+// holds mutex() for every access to map objects. (A map point's or
+// keyframe's fields are only read or written under that lock.) In batch mode
+// there is one thread and the lock is uncontended.
 #pragma once
 
 #include <memory>

@@ -6,8 +6,8 @@
 // creation order; every ordered container and every iteration over points is
 // by id, never by pointer value, so batch runs are reproducible bit for bit.
 //
-// Thread-safety: none of its own. The tracker and the local mapper access map
-// objects only while holding Map::mutex() (see map.h).
+// Thread-safety: none of its own. The modules access map objects only while
+// holding Map::mutex() (see map.h).
 #pragma once
 
 #include <Eigen/Core>
