@@ -16,6 +16,7 @@
 
 #include "common/atomic_file.h"
 #include "common/cli.h"
+#include "common/clock.h"
 #include "common/dataset.h"
 #include "common/errors.h"
 #include "common/progress.h"
@@ -25,23 +26,17 @@
 #include "stages/extract/orb_extractor.h"
 #include "stages/track/data/frame.h"
 #include "stages/track/data/keyframe_database.h"
+#include "stages/track/data/map.h"
+#include "stages/track/data/sensor_model.h"
 #include "stages/track/module/local_mapper.h"
 #include "stages/track/module/loop_closer.h"
-#include "stages/track/data/map.h"
+#include "stages/track/module/tracker.h"
 #include "stages/track/optimize/optimizer.h"
 #include "stages/track/run_report.h"
-#include "stages/track/data/sensor_model.h"
-#include "stages/track/module/tracker.h"
 #include "stages/vocab/vocabulary.h"
 
 namespace rrslam {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double MillisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 // Loads the images of the frames to track on a thread of its own, a few
 // frames ahead of the tracker (loading is I/O and decoding, not tracking).
@@ -97,7 +92,7 @@ class ImagePrefetcher {
       }
       Slot slot;
       try {
-        const auto start = Clock::now();
+        const auto start = SteadyClock::now();
         const size_t i = frames_[k];
         slot.images.gray = sequence_.LoadGray(i);
         const cv::Mat depth_raw = sequence_.LoadDepthRaw(i);
@@ -236,7 +231,7 @@ nlohmann::json TrackOptions::ToJson() const {
 }
 
 TrackSummary RunTrack(const TrackOptions& options) {
-  const auto run_start = Clock::now();
+  const auto run_start = SteadyClock::now();
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   const bool realtime = options.mode == "realtime";
@@ -319,7 +314,7 @@ TrackSummary RunTrack(const TrackOptions& options) {
   std::vector<double> tracking_ms, extraction_ms, loading_ms;
   tracking_ms.reserve(frames.size());
   ProgressBar progress("track", frames.size(), "frame");
-  const auto loop_start = Clock::now();
+  const auto loop_start = SteadyClock::now();
   const double first_timestamp = sequence.frame(frames.front()).rgb_timestamp;
   for (size_t k = 0; k < frames.size(); ++k) {
     const size_t index = frames[k];
@@ -340,11 +335,11 @@ TrackSummary RunTrack(const TrackOptions& options) {
     }
     if (realtime && options.pace) {
       std::this_thread::sleep_until(
-          loop_start + std::chrono::duration_cast<Clock::duration>(
+          loop_start + std::chrono::duration_cast<SteadyClock::duration>(
                            std::chrono::duration<double>(timestamp - first_timestamp)));
     }
 
-    const auto start = Clock::now();
+    const auto start = SteadyClock::now();
     if (!use_features) {
       extractor->Extract(gray, &keypoints, &descriptors);
       FinishKeypoints(sensor.camera, depth, &keypoints);
@@ -380,7 +375,7 @@ TrackSummary RunTrack(const TrackOptions& options) {
   mapper.ProcessQueued();  // Nothing in realtime mode after Stop(); none left in batch.
   closer.ProcessQueued();
   progress.Finish();
-  const double loop_s = std::chrono::duration<double>(Clock::now() - loop_start).count();
+  const double loop_s = std::chrono::duration<double>(SteadyClock::now() - loop_start).count();
 
   if (tracker.state() == Tracker::State::kNotInitialized) {
     throw AlgorithmError(
@@ -481,16 +476,17 @@ TrackSummary RunTrack(const TrackOptions& options) {
                             {"local_ba", solves_json(counters.bundle_adjustment_solves)},
                             {"essential_graph", solves_json(loops.essential_graph)},
                             {"global_ba", solves_json(loops.global_ba)}};
-  report["timings"] = {{"tracking", ToJson(tracking)},
-                       {"extraction", ToJson(SummarizeTimings(extraction_ms))},
-                       {"relocalization", ToJson(SummarizeTimings(tracker.relocalization_ms()))},
-                       {"local_mapping", ToJson(SummarizeTimings(counters.keyframe_ms))},
-                       {"loop_detection", ToJson(SummarizeTimings(loops.detection_ms))},
-                       {"global_ba", ToJson(SummarizeTimings(global_ba_ms))},
-                       {"image_loading", ToJson(SummarizeTimings(loading_ms))},
-                       {"loop_s", loop_s},
-                       {"total_s", std::chrono::duration<double>(Clock::now() - run_start).count()},
-                       {"frame_rate_hz", frames.size() / loop_s}};
+  report["timings"] = {
+      {"tracking", ToJson(tracking)},
+      {"extraction", ToJson(SummarizeTimings(extraction_ms))},
+      {"relocalization", ToJson(SummarizeTimings(tracker.relocalization_ms()))},
+      {"local_mapping", ToJson(SummarizeTimings(counters.keyframe_ms))},
+      {"loop_detection", ToJson(SummarizeTimings(loops.detection_ms))},
+      {"global_ba", ToJson(SummarizeTimings(global_ba_ms))},
+      {"image_loading", ToJson(SummarizeTimings(loading_ms))},
+      {"loop_s", loop_s},
+      {"total_s", std::chrono::duration<double>(SteadyClock::now() - run_start).count()},
+      {"frame_rate_hz", frames.size() / loop_s}};
   report["peak_rss_mb"] = PeakRssMegabytes();
   write("run.json", report.dump(2) + "\n");
   output.Commit();

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "common/clock.h"
 #include "stages/track/match/matcher.h"
 
 namespace rrslam {
@@ -284,7 +285,7 @@ size_t LocalMapper::QueueSize() const {
 }
 
 void LocalMapper::Process(KeyFrame* keyframe, bool realtime) {
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   {
     std::lock_guard<std::mutex> lock(map_->mutex());
     InsertKeyFrame(keyframe);
@@ -324,8 +325,7 @@ void LocalMapper::Process(KeyFrame* keyframe, bool realtime) {
     CullRedundantKeyFrames(keyframe);
   }
   ++counters_.keyframes;
-  counters_.keyframe_ms.push_back(
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  counters_.keyframe_ms.push_back(MillisecondsSince(start));
   if (sink_) sink_(keyframe);
 }
 

@@ -7,16 +7,11 @@
 #include <cmath>
 #include <unordered_map>
 
+#include "common/clock.h"
 #include "stages/track/match/matcher.h"
 
 namespace rrslam {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double MillisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 // The current point a fused one stands for.
 MapPoint* Survivor(MapPoint* point) {
@@ -110,8 +105,7 @@ void LoopCloser::Reset() {
   abort_ba_.store(false);
   consistent_groups_.clear();
   accepted_candidates_.clear();
-  last_loop_keyframe_ = 0;
-  any_loop_ = false;
+  last_loop_keyframe_.reset();
   loop_ = {};
   if (running) Start();
 }
@@ -124,7 +118,7 @@ void LoopCloser::StopGlobalBundleAdjustment() {
 }
 
 void LoopCloser::Process(KeyFrame* keyframe) {
-  const auto start = Clock::now();
+  const auto start = SteadyClock::now();
   {
     std::lock_guard<std::mutex> lock(map_->mutex());
     if (keyframe->bad()) return;
@@ -147,8 +141,9 @@ bool LoopCloser::DetectLoop(KeyFrame* keyframe) {
     return false;
   };
   if (static_cast<int>(map_->num_keyframes()) <= options_.min_map_keyframes ||
-      (any_loop_ && keyframe->id() < last_loop_keyframe_ +
-                                         static_cast<KeyFrameId>(options_.keyframes_after_loop))) {
+      (last_loop_keyframe_ &&
+       keyframe->id() <
+           *last_loop_keyframe_ + static_cast<KeyFrameId>(options_.keyframes_after_loop))) {
     return release();
   }
   // The bar: the lowest similarity of the keyframe to its covisible keyframes.
@@ -300,12 +295,13 @@ void LoopCloser::ReleaseCandidates(const KeyFrame* keep) {
 }
 
 void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
-  const auto start = Clock::now();
+  const auto start = SteadyClock::now();
   // A global BA of an earlier loop still running is outdated by this one: it
   // is aborted (and records so itself).
   StopGlobalBundleAdjustment();
   mapper_->Pause();
   size_t loop_index;
+  LoopClosure record;
   {
     std::lock_guard<std::mutex> lock(map_->mutex());
     map_->UpdateConnections(keyframe);
@@ -385,32 +381,29 @@ void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
     map_->ReleaseKeyFrame(loop_.matched);
     map_->ReleaseKeyFrame(keyframe);
     last_loop_keyframe_ = keyframe->id();
-    any_loop_ = true;
 
-    LoopClosure& record = pending_;
-    record = {};
     record.bow_matches = loop_.bow_matches;
     record.ransac_inliers = loop_.ransac_inliers;
     record.optimized_inliers = loop_.inliers;
     record.matches = loop_.matches;
-    pending_.keyframe = keyframe->id();
-    pending_.matched = loop_.matched->id();
-    pending_.frame = keyframe->frame_id();
-    pending_.matched_frame = loop_.matched->frame_id();
+    record.keyframe = keyframe->id();
+    record.matched = loop_.matched->id();
+    record.frame = keyframe->frame_id();
+    record.matched_frame = loop_.matched->frame_id();
     const Rigid3d& T_after = keyframe->T_cam_world();
-    pending_.correction_m = (T_after.Inverse().translation - T_before.Inverse().translation).norm();
-    pending_.correction_deg = RotationAngle(T_after.rotation, T_before.rotation) * 180.0 / M_PI;
-    pending_.correction_ms = MillisecondsSince(start);
+    record.correction_m = (T_after.Inverse().translation - T_before.Inverse().translation).norm();
+    record.correction_deg = RotationAngle(T_after.rotation, T_before.rotation) * 180.0 / M_PI;
+    record.correction_ms = MillisecondsSince(start);
     std::lock_guard<std::mutex> counters_lock(counters_mutex_);
-    counters_.loops.push_back(pending_);
+    counters_.loops.push_back(record);
     loop_index = counters_.loops.size() - 1;
   }
   mapper_->Resume();
   spdlog::info(
       "loop closing: keyframe {} (frame {}) closes a loop with keyframe {} (frame {}): "
       "{} matches, correction {:.3f} m, {:.2f} deg",
-      pending_.keyframe, pending_.frame, pending_.matched, pending_.matched_frame, pending_.matches,
-      pending_.correction_m, pending_.correction_deg);
+      record.keyframe, record.frame, record.matched, record.matched_frame, record.matches,
+      record.correction_m, record.correction_deg);
   loop_ = {};
 
   if (!options_.global_bundle_adjustment) return;
@@ -503,7 +496,7 @@ void LoopCloser::OptimizeEssentialGraph(KeyFrame* keyframe, const std::vector<Ke
 }
 
 void LoopCloser::RunGlobalBundleAdjustment(size_t loop_index, bool realtime) {
-  const auto start = Clock::now();
+  const auto start = SteadyClock::now();
   GlobalBundleAdjuster adjuster(sensor_, options_.global_ba_iterations);
   {
     std::lock_guard<std::mutex> lock(map_->mutex());

@@ -46,6 +46,7 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <thread>
 #include <vector>
@@ -182,11 +183,9 @@ class LoopCloser {
   // Detection state.
   std::vector<Group> consistent_groups_;
   std::vector<KeyFrame*> accepted_candidates_;
-  KeyFrameId last_loop_keyframe_ = 0;
-  bool any_loop_ = false;
+  std::optional<KeyFrameId> last_loop_keyframe_;  // Keyframe of the last loop closed.
   // The loop found by ComputeLoopTransform.
   LoopCandidateMatch loop_;
-  LoopClosure pending_;
 
   // Realtime.
   bool realtime_ = false;

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "stages/track/match/matcher.h"
+#include "stages/track/solve/ransac.h"
 
 namespace rrslam {
 namespace {
@@ -76,14 +77,7 @@ PnpResult SolvePnpRansac(const std::vector<Eigen::Vector3d>& points_world,
       std::max({options.min_inliers, static_cast<int>(options.min_inlier_ratio * n), kMinimalSet});
   if (min_inliers > n) return result;
   const double ratio = std::max(options.min_inlier_ratio, static_cast<double>(min_inliers) / n);
-  int iterations = options.max_iterations;
-  if (min_inliers == n) {
-    iterations = 1;
-  } else {
-    const double needed =
-        std::ceil(std::log(1 - options.probability) / std::log(1 - std::pow(ratio, 3)));
-    iterations = std::max(1, std::min(static_cast<int>(needed), options.max_iterations));
-  }
+  const int iterations = RansacIterations(options.probability, ratio, options.max_iterations);
 
   std::vector<double> max_error2(n);
   for (int i = 0; i < n; ++i) max_error2[i] = options.chi2 * sigma2[i];
@@ -99,12 +93,8 @@ PnpResult SolvePnpRansac(const std::vector<Eigen::Vector3d>& points_world,
   std::vector<int> sample(kMinimalSet);
   for (int it = 0; it < iterations; ++it) {
     ++result.iterations;
-    // A minimal set without repetition: a partial Fisher-Yates shuffle.
-    for (int k = 0; k < kMinimalSet; ++k) {
-      std::uniform_int_distribution<int> pick(k, n - 1);
-      std::swap(all[k], all[pick(rng)]);
-      sample[k] = all[k];
-    }
+    DrawMinimalSet(rng, kMinimalSet, &all);
+    std::copy(all.begin(), all.begin() + kMinimalSet, sample.begin());
     Rigid3d T;
     if (!Epnp(points_world, pixels, sample, K_cv, &T)) continue;
     const int count = Score(points_world, pixels, max_error2, K, T, &inlier);

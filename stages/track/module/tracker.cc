@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <map>
 
+#include "common/clock.h"
 #include "stages/track/optimize/optimizer.h"
 
 namespace rrslam {
@@ -200,11 +201,10 @@ bool Tracker::TrackReferenceKeyFrame() {
 }
 
 bool Tracker::Relocalize() {
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   current_.ComputeBow(vocabulary_, options_.bow_levels_up);
   KeyFrame* keyframe = relocalizer_.Relocalize(&current_, &pose_solves_);
-  relocalization_ms_.push_back(
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  relocalization_ms_.push_back(MillisecondsSince(start));
   if (keyframe == nullptr) return false;
   reference_keyframe_ = keyframe;
   relocalized_frame_id_ = current_.id();

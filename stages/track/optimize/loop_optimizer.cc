@@ -11,16 +11,18 @@
 namespace rrslam {
 namespace {
 
-// The sparse linear algebra this Ceres build has, if any.
-bool SparseAvailable() {
-  return ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
-         ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE);
-}
-
-ceres::SparseLinearAlgebraLibraryType SparseLibrary() {
-  return ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)
-             ? ceres::SUITE_SPARSE
-             : ceres::EIGEN_SPARSE;
+// Uses `sparse` with the sparse linear algebra this Ceres build has
+// (SuiteSparse, else Eigen's), or `dense` when it has none.
+void ChooseLinearSolver(ceres::LinearSolverType sparse, ceres::LinearSolverType dense,
+                        ceres::Solver::Options* options) {
+  for (const auto library : {ceres::SUITE_SPARSE, ceres::EIGEN_SPARSE}) {
+    if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(library)) {
+      options->linear_solver_type = sparse;
+      options->sparse_linear_algebra_library_type = library;
+      return;
+    }
+  }
+  options->linear_solver_type = dense;
 }
 
 // Whitened pixel error of a fixed camera-frame point mapped by a relative
@@ -201,12 +203,7 @@ double OptimizePoseGraph(PoseGraph* graph, int iterations, SolveCounts* counts) 
   }
   if (graph->edges.empty()) return 0;
   ceres::Solver::Options options = SolverOptions(iterations);
-  if (SparseAvailable()) {
-    options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    options.sparse_linear_algebra_library_type = SparseLibrary();
-  } else {
-    options.linear_solver_type = ceres::DENSE_QR;
-  }
+  ChooseLinearSolver(ceres::SPARSE_NORMAL_CHOLESKY, ceres::DENSE_QR, &options);
   const ceres::Solver::Summary summary = SolveCounted(options, &problem, iterations, counts);
   for (size_t v = 0; v < blocks.size(); ++v) {
     if (!graph->fixed[v]) graph->poses[v] = FromPoseBlock(blocks[v]);
@@ -293,12 +290,7 @@ void GlobalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
     return;
   }
   ceres::Solver::Options options = SolverOptions(iterations_);
-  if (SparseAvailable()) {
-    options.linear_solver_type = ceres::SPARSE_SCHUR;
-    options.sparse_linear_algebra_library_type = SparseLibrary();
-  } else {
-    options.linear_solver_type = ceres::DENSE_SCHUR;
-  }
+  ChooseLinearSolver(ceres::SPARSE_SCHUR, ceres::DENSE_SCHUR, &options);
   options.linear_solver_ordering.reset(ordering);
   AbortCallback abort_callback(abort);
   options.callbacks.push_back(&abort_callback);

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <random>
 
+#include "stages/track/solve/ransac.h"
+
 namespace rrslam {
 namespace {
 
@@ -29,15 +31,8 @@ RigidRansacResult SolveRigidRansac(const std::vector<Eigen::Vector3d>& points1,
       sigma2_2.size() != points1.size() || n < options.min_inliers) {
     return result;
   }
-  int iterations = options.max_iterations;
-  if (options.min_inliers == n) {
-    iterations = 1;
-  } else {
-    const double ratio = static_cast<double>(options.min_inliers) / n;
-    const double needed =
-        std::ceil(std::log(1 - options.probability) / std::log(1 - std::pow(ratio, 3)));
-    iterations = std::max(1, std::min(static_cast<int>(needed), options.max_iterations));
-  }
+  const int iterations = RansacIterations(
+      options.probability, static_cast<double>(options.min_inliers) / n, options.max_iterations);
 
   // Each point's own projection in its image, and its error bounds.
   std::vector<Eigen::Vector2d> pixel1(n), pixel2(n);
@@ -67,10 +62,8 @@ RigidRansacResult SolveRigidRansac(const std::vector<Eigen::Vector3d>& points1,
   Eigen::Matrix3d src, dst;
   for (int it = 0; it < iterations; ++it) {
     ++result.iterations;
-    // A minimal set without repetition: a partial Fisher-Yates shuffle.
+    DrawMinimalSet(rng, kMinimalSet, &all);
     for (int k = 0; k < kMinimalSet; ++k) {
-      std::uniform_int_distribution<int> pick(k, n - 1);
-      std::swap(all[k], all[pick(rng)]);
       src.col(k) = points2[all[k]];
       dst.col(k) = points1[all[k]];
     }
