@@ -1,7 +1,9 @@
 #include "common/text.h"
 
 #include <charconv>
+#include <cinttypes>
 #include <cmath>
+#include <cstdio>
 
 #include "common/errors.h"
 
@@ -66,6 +68,12 @@ std::string ShellQuote(std::string_view text) {
   }
   quoted += '\'';
   return quoted;
+}
+
+std::string Hex64(uint64_t value) {
+  char buffer[17];
+  std::snprintf(buffer, sizeof(buffer), "%016" PRIx64, value);
+  return buffer;
 }
 
 }  // namespace rrslam

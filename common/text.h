@@ -2,6 +2,7 @@
 // (rgb.txt, depth.txt, groundtruth.txt, associations, trajectories).
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <string_view>
@@ -25,5 +26,8 @@ long long ParseInteger(std::string_view field, const std::string& source, int li
 // `text` as one POSIX shell word: in single quotes, each embedded single quote
 // written as '\'' (for command lines handed to std::system / popen).
 std::string ShellQuote(std::string_view text);
+
+// `value` as 16 lowercase hex digits (checksums and hashes in reports).
+std::string Hex64(uint64_t value);
 
 }  // namespace rrslam

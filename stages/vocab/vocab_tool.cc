@@ -15,6 +15,7 @@
 #include "common/errors.h"
 #include "common/formats.h"
 #include "common/progress.h"
+#include "common/text.h"
 #include "stages/cluster/vocab_tree.h"
 #include "stages/extract/features_file.h"
 #include "stages/vocab/vocab_build.h"
@@ -36,12 +37,6 @@ FileKind KindByExtension(const std::filesystem::path& path) {
   if (ext == ".rrv") return FileKind::kBinary;
   if (ext == ".txt") return FileKind::kText;
   return FileKind::kUnknown;
-}
-
-std::string Hex64(uint64_t value) {
-  char buffer[17];
-  std::snprintf(buffer, sizeof(buffer), "%016" PRIx64, value);
-  return buffer;
 }
 
 double Seconds(std::chrono::steady_clock::time_point start) {
@@ -314,6 +309,7 @@ std::string RunVocabInfo(const VocabInfoOptions& options) {
       try {
         const VocabularyView v = ParseBinaryVocabulary(file.bytes(), name);
         j["structure"] = "ok";
+        j["tree"] = Hex64(VocabularyContentHash(v));
         nlohmann::json metadata = nlohmann::json::parse(v.metadata, nullptr, false);
         if (!v.metadata.empty()) {
           j["metadata"] =
@@ -335,6 +331,7 @@ std::string RunVocabInfo(const VocabInfoOptions& options) {
     j["words"] = v.num_words();
     j["checksum"] = "none in DBoW2 text (xxh3 of the file " + Hex64(v.checksum()) + ")";
     j["structure"] = "ok";
+    j["tree"] = Hex64(v.content_hash());
   }
   std::string text;
   if (options.json) {

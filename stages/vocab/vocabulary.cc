@@ -13,6 +13,7 @@
 #include "common/binary_header.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/text.h"
 #include "stages/vocab/vocabulary_format.h"
 
 namespace rrslam {
@@ -20,6 +21,7 @@ namespace rrslam {
 struct Vocabulary::Impl {
   std::string name;
   uint64_t checksum = 0;
+  uint64_t content_hash = 0;
   bool binary = false;
   std::optional<MappedFile> mapped;         // A loaded binary file.
   std::vector<OrbDescriptor> aligned_copy;  // A binary file loaded from memory.
@@ -76,6 +78,7 @@ Vocabulary Vocabulary::Load(const std::filesystem::path& path) {
     impl.data = LoadText(file.bytes(), path.string(), &impl.checksum);
     impl.view = impl.data.view();
   }
+  impl.content_hash = VocabularyContentHash(impl.view);
   return v;
 }
 
@@ -95,6 +98,7 @@ Vocabulary Vocabulary::FromBytes(std::span<const uint8_t> bytes, const std::stri
     impl.data = LoadText(bytes, name, &impl.checksum);
     impl.view = impl.data.view();
   }
+  impl.content_hash = VocabularyContentHash(impl.view);
   return v;
 }
 
@@ -111,6 +115,7 @@ Vocabulary Vocabulary::FromData(VocabularyData data, const std::string& name) {
   // Checksum of the arrays as they would be laid out in a binary payload.
   impl.checksum = Checksum64(
       {reinterpret_cast<const uint8_t*>(impl.view.descriptors), 40 * impl.view.info.num_nodes});
+  impl.content_hash = VocabularyContentHash(impl.view);
   return v;
 }
 
@@ -127,14 +132,13 @@ size_t Vocabulary::num_nodes() const { return impl().view.info.num_nodes; }
 size_t Vocabulary::num_words() const { return impl().view.info.num_words; }
 bool Vocabulary::is_binary() const { return impl().binary; }
 uint64_t Vocabulary::checksum() const { return impl().checksum; }
+uint64_t Vocabulary::content_hash() const { return impl().content_hash; }
 const VocabularyView& Vocabulary::view() const { return impl().view; }
 
 std::string Vocabulary::Identity() const {
   const Impl& impl = this->impl();
-  char checksum[17];
-  std::snprintf(checksum, sizeof(checksum), "%016" PRIx64, impl.checksum);
   return impl.name + " k=" + std::to_string(k()) + " L=" + std::to_string(levels()) +
-         " words=" + std::to_string(num_words()) + " checksum=" + checksum;
+         " words=" + std::to_string(num_words()) + " tree=" + Hex64(impl.content_hash);
 }
 
 WordId Vocabulary::Transform(const OrbDescriptor& descriptor) const {

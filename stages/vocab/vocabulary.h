@@ -81,8 +81,8 @@ class Vocabulary {
   size_t num_words() const;
   bool empty() const { return num_words() == 0; }
 
-  // "<file name> k=10 L=6 words=... checksum=<hex>": identifies the vocabulary
-  // in outputs that used it (run.json).
+  // "<file name> k=10 L=6 words=... tree=<content_hash() in hex>": identifies
+  // the vocabulary in outputs that used it (run.json).
   std::string Identity() const;
 
   // True when loaded from the binary format, false for DBoW2 text or built
@@ -90,6 +90,10 @@ class Vocabulary {
   bool is_binary() const;
   // XXH3-64 of the binary payload, or of the whole text file.
   uint64_t checksum() const;
+  // Identity of the tree itself (VocabularyContentHash): equal for the same
+  // tree in either format, wherever it was trained or whatever its metadata.
+  // Maps record it and refuse another vocabulary.
+  uint64_t content_hash() const;
   // The node arrays (vocabulary_format.h), e.g. to write the vocabulary in
   // the other format. Valid as long as this object.
   const VocabularyView& view() const;

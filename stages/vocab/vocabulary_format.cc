@@ -200,6 +200,20 @@ void LinksFromParents(std::span<const uint32_t> parents, VocabularyInfo* info,
   BuildLinks(parents, false, info, links, source, 0);
 }
 
+uint64_t VocabularyContentHash(const VocabularyView& v) {
+  const uint64_t n = v.info.num_nodes;
+  const uint64_t fields[9] = {static_cast<uint64_t>(v.info.k),
+                              static_cast<uint64_t>(v.info.levels),
+                              static_cast<uint64_t>(v.info.weighting),
+                              static_cast<uint64_t>(v.info.scoring),
+                              n,
+                              v.info.num_words,
+                              Checksum64({reinterpret_cast<const uint8_t*>(v.descriptors), 32 * n}),
+                              Checksum64({reinterpret_cast<const uint8_t*>(v.links), 4 * n}),
+                              Checksum64({reinterpret_cast<const uint8_t*>(v.weights), 4 * n})};
+  return Checksum64({reinterpret_cast<const uint8_t*>(fields), sizeof(fields)});
+}
+
 void ValidateVocabularyLinks(const VocabularyView& v, const std::string& source) {
   const uint64_t n = v.info.num_nodes;
   if (n < 2 || n > kMaxVocabularyNodes) {

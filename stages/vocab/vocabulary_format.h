@@ -133,6 +133,12 @@ void ValidateVocabularyLinks(const VocabularyView& v, const std::string& source)
 // every node but the root has exactly one parent. Throws DataError.
 std::vector<uint32_t> VocabularyParents(const VocabularyView& v, const std::string& source);
 
+// Hash of the tree's content: XXH3-64 over k, L, weighting, scoring, the
+// node and word counts and the XXH3-64 of each array (descriptors, links,
+// float32 weights). Not of the metadata: a tree converted between text and
+// binary, or trained with the same data in another folder, hashes the same.
+uint64_t VocabularyContentHash(const VocabularyView& v);
+
 // Leaf node reached by a descriptor: from the root, the nearest child by
 // Hamming distance (the first one on ties), until a node without children.
 uint32_t DescendToLeaf(const VocabularyView& v, const OrbDescriptor& d);

@@ -9,6 +9,7 @@
 #include "common/atomic_file.h"
 #include "common/errors.h"
 #include "common/testing.h"
+#include "common/text.h"
 #include "stages/vocab/vocab_test_util.h"
 #include "stages/vocab/vocabulary_format.h"
 
@@ -220,9 +221,8 @@ TEST(Vocabulary, LoadsBothFormatsFromFilesAndMemory) {
       EXPECT_NEAR(v->view().weights[i], data.weights()[i], 1e-5 * data.weights()[i]);
     }
   }
-  EXPECT_EQ(binary.Identity().rfind(
-                "v.rrv k=6 L=4 words=" + std::to_string(data.info.num_words) + " checksum=", 0),
-            0u);
+  EXPECT_EQ(binary.Identity(), "v.rrv k=6 L=4 words=" + std::to_string(data.info.num_words) +
+                                   " tree=" + Hex64(binary.content_hash()));
   // From memory, at any alignment of the source bytes.
   const std::string bytes = ReadFileToString(dir / "v.rrv");
   std::vector<uint8_t> shifted(bytes.size() + 1);
@@ -235,6 +235,32 @@ TEST(Vocabulary, LoadsBothFormatsFromFilesAndMemory) {
   const Vocabulary taken = std::move(moved);
   EXPECT_EQ(taken.num_words(), data.info.num_words);
   EXPECT_TRUE(moved.empty());  // NOLINT(bugprone-use-after-move)
+}
+
+// The tree's identity does not depend on the file: its name, its format
+// (text converted to binary) or its metadata (training paths). Another tree,
+// or the same tree with one weight changed, has another identity.
+TEST(Vocabulary, ContentHashIdentifiesTheTreeNotTheFile) {
+  testing::TempDir dir;
+  VocabularyData data = testing::RandomVocabulary(6, 4, 2);
+  data.metadata = R"({"training": "/data/a"})";
+  WriteTextVocabulary(dir / "a.txt", data.view(), "a");
+  const Vocabulary text = Vocabulary::Load(dir / "a.txt");
+  VocabularyView converted = text.view();
+  converted.metadata = R"({"training": "/elsewhere/b", "converted_from": "a.txt"})";
+  WriteBinaryVocabulary(dir / "b.rrv", converted);
+  const Vocabulary binary = Vocabulary::Load(dir / "b.rrv");
+  EXPECT_NE(text.checksum(), binary.checksum());
+  EXPECT_EQ(text.content_hash(), binary.content_hash());
+  EXPECT_EQ(text.content_hash(), VocabularyContentHash(text.view()));
+
+  const Vocabulary other = Vocabulary::FromData(testing::RandomVocabulary(6, 4, 3), "other");
+  EXPECT_NE(other.content_hash(), text.content_hash());
+  VocabularyData changed = testing::RandomVocabulary(6, 4, 2);
+  VocabularyData same = testing::RandomVocabulary(6, 4, 2);
+  changed.weights()[changed.info.num_nodes - 1] += 0.5f;
+  EXPECT_NE(Vocabulary::FromData(std::move(changed), "c").content_hash(),
+            Vocabulary::FromData(std::move(same), "s").content_hash());
 }
 
 TEST(Vocabulary, LoadErrorsNameTheFile) {
