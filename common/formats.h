@@ -9,6 +9,7 @@
 //   rrslam.features  1.0  per-frame keypoints and ORB descriptors (extract)
 //   rrslam.vocab_tree 1.0 hierarchical k-means tree of ORB descriptors (cluster)
 //   rrslam.vocabulary 1.0 binary bag-of-words vocabulary (vocab)
+//   rrslam.map       1.0  saved SLAM map: keyframes, map points, graph (mapstore)
 #pragma once
 
 #include <cstdint>
@@ -16,14 +17,15 @@
 namespace rrslam {
 
 struct FormatSpec {
-  const char* name;   // Human-readable id, also the HDF5 "format" attribute.
-  char magic[9];      // 8 magic bytes of a binary format (plus NUL); "" for HDF5.
-  uint16_t major;     // Incompatible changes bump the major version.
-  uint16_t minor;     // Compatible additions bump the minor version.
+  const char* name;  // Human-readable id, also the HDF5 "format" attribute.
+  char magic[9];     // 8 magic bytes of a binary format (plus NUL); "" for HDF5.
+  uint16_t major;    // Incompatible changes bump the major version.
+  uint16_t minor;    // Compatible additions bump the minor version.
 };
 
 inline constexpr FormatSpec kFeaturesFormat = {"rrslam.features", "", 1, 0};
 inline constexpr FormatSpec kVocabTreeFormat = {"rrslam.vocab_tree", "", 1, 0};
 inline constexpr FormatSpec kVocabularyFormat = {"rrslam.vocabulary", "RRSLVOCB", 1, 0};
+inline constexpr FormatSpec kMapFormat = {"rrslam.map", "RRSLMAP1", 1, 0};
 
 }  // namespace rrslam

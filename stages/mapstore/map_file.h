@@ -1,0 +1,87 @@
+// Reading and writing rrslam.map files (format "rrslam.map" 1.0, magic
+// "RRSLMAP1"), and the relation checks every loaded map passes.
+//
+// docs/mapstore.md describes the format byte by byte. In short: the common
+// header of common/binary_header.h (magic, version, header size, XXH3 of the
+// payload and of the header), then a table of sections, each with its own
+// offset, size and XXH3-64, so a corrupt file names the section that broke.
+//
+// Thread-safety: functions are reentrant; no shared state.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "stages/mapstore/map_data.h"
+
+namespace rrslam {
+
+// One section of a map file as the header's table lists it.
+struct MapSectionInfo {
+  std::string name;       // "camera", "keyframes", "keypoints", ...
+  uint64_t offset = 0;    // Bytes from the start of the payload.
+  uint64_t size = 0;      // Bytes.
+  uint64_t checksum = 0;  // XXH3-64 of the section's bytes.
+};
+
+struct MapFileInfo {
+  uint16_t major = 0, minor = 0;
+  uint64_t file_size = 0;
+  std::vector<MapSectionInfo> sections;
+};
+
+// The whole file for `map` (deterministic: the same MapData gives the same
+// bytes). Does not validate `map`; callers that build it from a live map do.
+std::vector<uint8_t> EncodeMap(const MapData& map);
+
+// Writes `map` to `path` atomically (AtomicOutput: name.tmp, fsync, rename).
+// Throws CantCreateError naming the path.
+void WriteMapFile(const std::filesystem::path& path, const MapData& map);
+
+// Parses a whole file: header, every section's checksum and bounds, the
+// records, then ValidateMapData. Throws DataError naming `source` and the
+// first problem ("map.rrm: section keypoints: checksum mismatch",
+// "map.rrm: format major version 2, this build reads 1", ...). `info`, when
+// non-null, receives the header and section table.
+MapData ParseMap(std::span<const uint8_t> file, const std::string& source,
+                 MapFileInfo* info = nullptr);
+
+// Reads and parses `path`. Throws NoInputError when it is missing or is a
+// folder, DataError as ParseMap.
+MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info = nullptr);
+
+// The header and section table only (checks the header, not the sections),
+// for `rrslam-mapstore info` on a file whose sections may be corrupt.
+MapFileInfo ReadMapFileInfo(std::span<const uint8_t> file, const std::string& source);
+
+// Record counts as the "meta" section lists them.
+struct MapCounts {
+  uint64_t keyframes = 0;
+  uint64_t map_points = 0;
+  uint64_t keypoints = 0;    // All keyframes' keypoints.
+  uint64_t bow_entries = 0;  // All keyframes' (word, value) entries.
+  uint64_t feature_vector_groups = 0;
+  uint64_t feature_vector_indices = 0;
+  uint64_t connections = 0;  // Covisibility entries (each edge twice).
+  uint64_t loop_edges = 0;   // Loop edge entries (each edge twice).
+  uint64_t observations = 0;
+};
+
+// The "meta" section alone: camera, vocabulary, bow_levels_up, next ids and
+// metadata of the map (no keyframes or map points), and its counts. Checks the
+// header and the meta section's checksum only, for `rrslam-mapstore info` on a
+// file whose other sections may be corrupt. Throws DataError as ParseMap.
+MapData ParseMapMeta(std::span<const uint8_t> file, const std::string& source,
+                     MapCounts* counts = nullptr);
+
+// Checks every relation listed in map_data.h, and that counts and values are
+// sane (finite positions and poses, unit quaternions within 1e-6, octaves
+// below the camera's ORB levels, parallel arrays of equal length, feature
+// vector indices in range, word ids below the vocabulary's words). Throws
+// DataError naming `source` and the first violation, with the ids involved.
+void ValidateMapData(const MapData& map, const std::string& source);
+
+}  // namespace rrslam
