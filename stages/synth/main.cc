@@ -58,6 +58,12 @@ void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
   app.add_option("--texel-size", o->texel_size,
                  "Texture resolution, metres per texel [0.0005, 0.05]")
       ->capture_default_str();
+  // Not restricted here: SynthOptions::Check names the valid values.
+  app.add_option("--change", o->scene_change,
+                 "Scene edit: none (the standard room) or moved-box (the screen moves from the "
+                 "table to the floor and a new crate appears; all else bit-identical; synth.json "
+                 "records where)")
+      ->capture_default_str();
   app.add_option("--threads", o->threads, "Worker threads; 0 = all cores (same output)")
       ->capture_default_str();
 }

@@ -237,4 +237,88 @@ std::vector<Box> StandardRoomBoxes() {
   return boxes;
 }
 
+Eigen::AlignedBox3d BoxBounds(const Box& box) {
+  // Half-extents along world x and y of a box turned by `yaw` about z.
+  const double c = std::fabs(std::cos(box.yaw)), s = std::fabs(std::sin(box.yaw));
+  const Eigen::Vector3d half(0.5 * (c * box.size.x() + s * box.size.y()),
+                             0.5 * (s * box.size.x() + c * box.size.y()), 0.5 * box.size.z());
+  return Eigen::AlignedBox3d(box.centre_world - half, box.centre_world + half);
+}
+
+std::string SceneChangeName(SceneChange change) {
+  switch (change) {
+    case SceneChange::kNone:
+      return "none";
+    case SceneChange::kMovedBox:
+      return "moved-box";
+  }
+  return "unknown";
+}
+
+bool ParseSceneChange(const std::string& name, SceneChange* change) {
+  for (SceneChange c : {SceneChange::kNone, SceneChange::kMovedBox}) {
+    if (name == SceneChangeName(c)) {
+      *change = c;
+      return true;
+    }
+  }
+  return false;
+}
+
+std::string SceneChangeNames() { return "none or moved-box"; }
+
+std::vector<Eigen::AlignedBox3d> SceneChangeInfo::ChangedRegions() const {
+  std::vector<Eigen::AlignedBox3d> regions;
+  for (const Move& m : moved) {
+    regions.push_back(BoxBounds(m.from));
+    regions.push_back(BoxBounds(m.to));
+  }
+  for (const Addition& a : added) regions.push_back(BoxBounds(a.box));
+  return regions;
+}
+
+SceneChangeInfo DescribeSceneChange(SceneChange change) {
+  using V = Eigen::Vector3d;
+  constexpr double kDeg = M_PI / 180.0;
+  SceneChangeInfo info;
+  info.change = change;
+  if (change == SceneChange::kNone) return info;
+  const std::vector<Box> standard = StandardRoomBoxes();
+  auto index_of = [&](const std::string& name) {
+    for (size_t i = 0; i < standard.size(); ++i) {
+      if (standard[i].name == name) return static_cast<int>(i);
+    }
+    throw std::logic_error("DescribeSceneChange: no box " + name + " in the standard room");
+  };
+  // The places were chosen with the default loop in mind: it looks east
+  // (yaw within about +-35 deg, +-31 deg of field of view), so the old and the
+  // new place of the screen and the crate are all in its view. The screen
+  // stands on the floor with its -z face still hidden; both boxes keep at least
+  // 0.15 m from every other box (their axis-aligned bounds do) and stay well
+  // outside the cameras' free middle (kStandardRoomFreeRadius).
+  SceneChangeInfo::Move move;
+  move.index = index_of("screen");
+  move.from = standard[move.index];
+  move.to = move.from;
+  move.to.centre_world = V(2.5, -1.2, 0.5 * move.from.size.z());
+  info.moved.push_back(move);
+  SceneChangeInfo::Addition add;
+  add.index = static_cast<int>(standard.size());
+  add.box = Box::Object("crate3", V(2.3, 1.35, 0.25), V(0.5, 0.45, 0.5), Material::kCardboard,
+                        10 * kDeg, kFaceNegZ);
+  info.added.push_back(add);
+  return info;
+}
+
+std::vector<Box> ChangedRoomBoxes(SceneChange change) {
+  std::vector<Box> boxes = StandardRoomBoxes();
+  const SceneChangeInfo info = DescribeSceneChange(change);
+  for (const SceneChangeInfo::Move& m : info.moved) boxes[m.index] = m.to;
+  for (const SceneChangeInfo::Addition& a : info.added) {
+    // Appended in index order: no standard surface changes id (texture seed).
+    boxes.insert(boxes.begin() + a.index, a.box);
+  }
+  return boxes;
+}
+
 }  // namespace rrslam::synth

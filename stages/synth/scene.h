@@ -153,4 +153,66 @@ std::vector<Box> StandardRoomBoxes();
 // closer than this to the room's vertical axis (x = y = 0) below 2.5 m.
 inline constexpr double kStandardRoomFreeRadius = 1.55;
 
+// Axis-aligned world bounds of a box (of its full extent, hidden faces
+// included), metres.
+Eigen::AlignedBox3d BoxBounds(const Box& box);
+
+// Edits of the standard room: "the same room, changed", for tests of map
+// updates (map the standard room, then run on the changed one). A change moves
+// and adds boxes without disturbing anything else: a moved box keeps its
+// place in the box list (so its surfaces keep their ids and, having the same
+// sizes, their textures: it is the same physical object), added boxes come
+// after all standard boxes (so no other surface's id, and hence texture seed,
+// changes). Every unchanged surface therefore renders bit-identically.
+enum class SceneChange {
+  // The standard room as it is.
+  kNone,
+  // The screen moves from the east table (centre (2.42, 0.35, 0.97)) to the
+  // floor by the east wall, south of the table (centre (2.5, -1.2, 0.2)),
+  // 1.73 m away, still facing west; a new cardboard crate "crate3"
+  // (0.5 x 0.45 x 0.5 m, yaw 10 deg) stands on the floor between the table
+  // and the cabinet (centre (2.3, 1.35, 0.25)). All three places are seen by
+  // the default loop (300 frames, looking east: each in more than half of its
+  // frames) and by the full-turn loops of 18 s and more per lap (about a
+  // sixth of their frames); sweep and rotation do not see them all.
+  kMovedBox,
+};
+
+// "none", "moved-box".
+std::string SceneChangeName(SceneChange change);
+// Parses a name of SceneChangeName; false when unknown.
+bool ParseSceneChange(const std::string& name, SceneChange* change);
+// The valid names in a sentence: "none or moved-box".
+std::string SceneChangeNames();
+
+// What a SceneChange does to StandardRoomBoxes(), for tests and for stages
+// that need to know where the room changed.
+struct SceneChangeInfo {
+  // A box of the standard room put elsewhere (same name, size, yaw, materials).
+  struct Move {
+    int index = -1;  // In StandardRoomBoxes() and in ChangedRoomBoxes(): the same.
+    Box from;        // As in StandardRoomBoxes().
+    Box to;          // As in ChangedRoomBoxes().
+  };
+  // A box that is not in the standard room.
+  struct Addition {
+    int index = -1;  // In ChangedRoomBoxes(); after every standard box.
+    Box box;
+  };
+  SceneChange change = SceneChange::kNone;
+  std::vector<Move> moved;
+  std::vector<Addition> added;
+
+  // Axis-aligned world bounds (BoxBounds) of every place whose look changed:
+  // each moved box's old and new place, then each added box. Empty for kNone.
+  // Outside these regions (and what they hide from a given viewpoint) the
+  // changed room looks exactly like the standard one.
+  std::vector<Eigen::AlignedBox3d> ChangedRegions() const;
+};
+SceneChangeInfo DescribeSceneChange(SceneChange change);
+
+// The boxes of the standard room with `change` applied
+// (StandardRoomBoxes() for kNone).
+std::vector<Box> ChangedRoomBoxes(SceneChange change);
+
 }  // namespace rrslam::synth

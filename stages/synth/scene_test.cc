@@ -8,7 +8,9 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
+#include "stages/synth/camera_path.h"
 #include "stages/synth/random.h"
+#include "stages/synth/renderer.h"
 #include "stages/synth/texture.h"
 
 namespace rrslam::synth {
@@ -247,5 +249,155 @@ TEST(MipTexture, SamplesInterpolateAndFilterAnisotropically) {
   EXPECT_NEAR(v_texture.Sample(5.0f, 0.3f, 0.01f, 0, 0, 0.01f)[2], 200.0, 1e-3);
 }
 
+bool SameBox(const Box& a, const Box& b) {
+  return a.name == b.name && a.centre_world == b.centre_world && a.size == b.size &&
+         a.yaw == b.yaw && a.inside == b.inside && a.materials == b.materials &&
+         a.hidden_faces == b.hidden_faces;
+}
+
+// Whether surface `s` is a face of `box` (names are "<box>.<face>").
+bool IsFaceOf(const Surface& s, const Box& box) {
+  return s.name.size() == box.name.size() + 3 && s.name.rfind(box.name + ".", 0) == 0;
+}
+
+TEST(SceneChange, NoneIsTheStandardRoom) {
+  const std::vector<Box> standard = StandardRoomBoxes(),
+                         changed = ChangedRoomBoxes(SceneChange::kNone);
+  ASSERT_EQ(changed.size(), standard.size());
+  for (size_t i = 0; i < standard.size(); ++i) EXPECT_TRUE(SameBox(changed[i], standard[i])) << i;
+  const SceneChangeInfo info = DescribeSceneChange(SceneChange::kNone);
+  EXPECT_EQ(info.change, SceneChange::kNone);
+  EXPECT_TRUE(info.moved.empty());
+  EXPECT_TRUE(info.added.empty());
+  EXPECT_TRUE(info.ChangedRegions().empty());
+}
+
+TEST(SceneChange, MovedBoxMovesOneBoxAndAddsOneInFreeSpace) {
+  const std::vector<Box> standard = StandardRoomBoxes();
+  const std::vector<Box> changed = ChangedRoomBoxes(SceneChange::kMovedBox);
+  const SceneChangeInfo info = DescribeSceneChange(SceneChange::kMovedBox);
+  ASSERT_EQ(info.moved.size(), 1u);
+  ASSERT_EQ(info.added.size(), 1u);
+  const SceneChangeInfo::Move& move = info.moved[0];
+  const SceneChangeInfo::Addition& add = info.added[0];
+
+  // One box appended; exactly one standard box differs, and only in its centre.
+  ASSERT_EQ(changed.size(), standard.size() + 1);
+  int differing = 0;
+  for (size_t i = 0; i < standard.size(); ++i) {
+    if (SameBox(changed[i], standard[i])) continue;
+    ++differing;
+    EXPECT_EQ(static_cast<int>(i), move.index);
+    Box back = changed[i];
+    back.centre_world = standard[i].centre_world;
+    EXPECT_TRUE(SameBox(back, standard[i])) << "only the centre changes";
+  }
+  EXPECT_EQ(differing, 1);
+  EXPECT_TRUE(SameBox(move.from, standard.at(move.index)));
+  EXPECT_TRUE(SameBox(move.to, changed.at(move.index)));
+  EXPECT_EQ(move.from.name, "screen");
+  EXPECT_GE((move.to.centre_world - move.from.centre_world).norm(), 0.5);
+  EXPECT_EQ(add.index, static_cast<int>(standard.size()));
+  EXPECT_TRUE(SameBox(add.box, changed.back()));
+  for (const Box& box : standard) EXPECT_NE(box.name, add.box.name);
+
+  // Inside the room, clear of every other box, out of the cameras' free middle.
+  const Eigen::AlignedBox3d room(Eigen::Vector3d(-3, -2.5, 0), Eigen::Vector3d(3, 2.5, 3));
+  for (const Box* box : {&move.to, &add.box}) {
+    const Eigen::AlignedBox3d bounds = BoxBounds(*box);
+    EXPECT_TRUE(room.contains(bounds)) << box->name;
+    EXPECT_NEAR(bounds.min().z(), 0.0, 1e-12) << box->name << " stands on the floor";
+    for (size_t i = 1; i < changed.size(); ++i) {  // 0 is the room.
+      if (changed[i].name == box->name) continue;
+      EXPECT_GE(bounds.exteriorDistance(BoxBounds(changed[i])), 0.15)
+          << box->name << " vs " << changed[i].name;
+    }
+    const Eigen::Vector2d nearest =
+        Eigen::Vector2d::Zero().cwiseMax(bounds.min().head<2>()).cwiseMin(bounds.max().head<2>());
+    EXPECT_GT(nearest.norm(), kStandardRoomFreeRadius + 0.3) << box->name;
+  }
+  // The bounds of BoxBounds hold the box's corners.
+  const Eigen::AlignedBox3d crate = BoxBounds(add.box);
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(add.box.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (int k = 0; k < 8; ++k) {
+    const Eigen::Vector3d corner(k & 1 ? 0.5 : -0.5, k & 2 ? 0.5 : -0.5, k & 4 ? 0.5 : -0.5);
+    const Eigen::Vector3d p = add.box.centre_world + R * corner.cwiseProduct(add.box.size);
+    EXPECT_TRUE(crate.exteriorDistance(p) < 1e-12) << k;
+  }
+
+  // The changed regions: old and new place of the moved box, then the added box.
+  const std::vector<Eigen::AlignedBox3d> regions = info.ChangedRegions();
+  ASSERT_EQ(regions.size(), 3u);
+  EXPECT_TRUE(regions[0].isApprox(BoxBounds(move.from)));
+  EXPECT_TRUE(regions[1].isApprox(BoxBounds(move.to)));
+  EXPECT_TRUE(regions[2].isApprox(BoxBounds(add.box)));
+  EXPECT_FALSE(regions[0].intersects(regions[1]));
+}
+
+TEST(SceneChange, UnchangedSurfacesKeepTheirIdsAndTextures) {
+  SceneOptions options;
+  options.texel_size = 0.02;
+  options.seed = 5;
+  const Scene standard = Scene::StandardRoom(options);
+  const Scene changed(ChangedRoomBoxes(SceneChange::kMovedBox), options);
+  const SceneChangeInfo info = DescribeSceneChange(SceneChange::kMovedBox);
+  const Eigen::Vector3d shift = info.moved[0].to.centre_world - info.moved[0].from.centre_world;
+  ASSERT_GT(changed.surfaces().size(), standard.surfaces().size());
+  for (const Surface& s : standard.surfaces()) {
+    const Surface& c = changed.surface(s.id);
+    ASSERT_EQ(c.name, s.name);
+    // The moved box is the same object: same texture, carried along.
+    const Eigen::Vector3d expected_origin =
+        IsFaceOf(s, info.moved[0].from) ? Eigen::Vector3d(s.origin_world + shift) : s.origin_world;
+    EXPECT_TRUE(c.origin_world.isApprox(expected_origin, 1e-12)) << s.name;
+    EXPECT_EQ(c.normal_world, s.normal_world) << s.name;
+    EXPECT_EQ(cv::norm(standard.texture(s.id).LevelImage(0), changed.texture(s.id).LevelImage(0),
+                       cv::NORM_INF),
+              0.0)
+        << s.name;
+  }
+  for (size_t i = standard.surfaces().size(); i < changed.surfaces().size(); ++i) {
+    EXPECT_TRUE(IsFaceOf(changed.surface(i), info.added[0].box)) << changed.surface(i).name;
+  }
+}
+
+TEST(SceneChange, ChangedPlacesAreSeenByTheLoop) {
+  // The default loop (300 frames at 30 fps, looking east) and a full-turn lap
+  // (600 frames) see the moved box at its old and new place and the added box.
+  SceneOptions options;
+  options.texel_size = 0.05;
+  const Scene standard = Scene::StandardRoom(options);
+  const Scene changed(ChangedRoomBoxes(SceneChange::kMovedBox), options);
+  const SceneChangeInfo info = DescribeSceneChange(SceneChange::kMovedBox);
+  const PinholeCamera camera(131.25, 131.25, 79.5, 59.5, 160, 120);
+  const Renderer render_standard(standard, camera), render_changed(changed, camera);
+  for (int frames : {300, 600}) {
+    const Trajectory path = MakeTrajectory(TrajectoryKind::kLoop, frames, 30.0);
+    int old_place = 0, new_place = 0, added = 0, sampled = 0;
+    for (int i = 0; i < frames; i += 10, ++sampled) {
+      auto count = [](const Scene& scene, const RenderedFrame& frame, const Box& box) {
+        int n = 0;
+        for (auto it = frame.surface_id.begin<int>(); it != frame.surface_id.end<int>(); ++it) {
+          if (*it >= 0 && IsFaceOf(scene.surface(*it), box)) ++n;
+        }
+        return n;
+      };
+      const RenderedFrame a = render_standard.Render(path[i].T_world_cam);
+      const RenderedFrame b = render_changed.Render(path[i].T_world_cam);
+      // At least 100 pixels of the 160 x 120 (0.5%).
+      if (count(standard, a, info.moved[0].from) >= 100) ++old_place;
+      if (count(changed, b, info.moved[0].to) >= 100) ++new_place;
+      if (count(changed, b, info.added[0].box) >= 100) ++added;
+    }
+    // The default loop looks east, at the changes, most of the time (in 16
+    // to 23 of the 30 samples); the full turn, a sixth of the time (7 to 10
+    // of 60).
+    const int min_frames = frames == 300 ? sampled / 3 : 4;
+    EXPECT_GE(old_place, min_frames) << frames;
+    EXPECT_GE(new_place, min_frames) << frames;
+    EXPECT_GE(added, min_frames) << frames;
+  }
+}
 }  // namespace
 }  // namespace rrslam::synth

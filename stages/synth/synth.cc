@@ -33,6 +33,46 @@ constexpr double kDepthMapFactor = 5000.0;
 // weighting"), where 0.06 to 0.3 px all beat ORB-SLAM2's weighting.
 constexpr double kDepthSamplingSigma = 0.1;
 
+nlohmann::ordered_json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+// A box of the scene summary: where it is and its axis-aligned bounds.
+nlohmann::ordered_json BoxJson(const synth::Box& box) {
+  const Eigen::AlignedBox3d bounds = synth::BoxBounds(box);
+  nlohmann::ordered_json j;
+  j["centre"] = Vec(box.centre_world);
+  j["size"] = Vec(box.size);
+  j["yaw_deg"] = box.yaw * 180.0 / M_PI;
+  j["bounds_min"] = Vec(bounds.min());
+  j["bounds_max"] = Vec(bounds.max());
+  return j;
+}
+
+// The scene_change section of synth.json (SceneChangeInfo).
+nlohmann::ordered_json SceneChangeJson(const synth::SceneChangeInfo& info) {
+  nlohmann::ordered_json j;
+  j["name"] = synth::SceneChangeName(info.change);
+  j["moved"] = nlohmann::ordered_json::array();
+  for (const synth::SceneChangeInfo::Move& m : info.moved) {
+    nlohmann::ordered_json move;
+    move["box"] = m.from.name;
+    move["index"] = m.index;
+    move["from"] = BoxJson(m.from);
+    move["to"] = BoxJson(m.to);
+    move["displacement_m"] = (m.to.centre_world - m.from.centre_world).norm();
+    j["moved"].push_back(move);
+  }
+  j["added"] = nlohmann::ordered_json::array();
+  for (const synth::SceneChangeInfo::Addition& a : info.added) {
+    nlohmann::ordered_json add;
+    add["box"] = a.box.name;
+    add["index"] = a.index;
+    add["material"] = synth::MaterialName(a.box.materials[0]);
+    add.update(BoxJson(a.box));
+    j["added"].push_back(add);
+  }
+  return j;
+}
+
 std::string Num(double v) {
   char buffer[64];
   std::snprintf(buffer, sizeof(buffer), "%.9g", v);
@@ -92,6 +132,10 @@ bool SynthOptions::Check(std::string* why) const {
   }
   if (!(texel_size >= 0.0005 && texel_size <= 0.05)) {
     return Fail(why, "texel_size = " + Num(texel_size) + "; must be in [0.0005, 0.05]");
+  }
+  synth::SceneChange change;
+  if (!synth::ParseSceneChange(scene_change, &change)) {
+    return Fail(why, "scene_change = " + scene_change + "; must be " + synth::SceneChangeNames());
   }
   if (threads < 0 || threads > 256) {
     return Fail(why, "threads = " + std::to_string(threads) + "; must be in [0, 256]");
@@ -156,6 +200,7 @@ std::string SynthOptions::ToJson() const {
   j["motion_blur"] = MotionBlur();
   j["seed"] = seed;
   j["texel_size"] = texel_size;
+  j["scene_change"] = scene_change;
   return j.dump();
 }
 
@@ -176,7 +221,9 @@ SyntheticSequence::SyntheticSequence(const SynthOptions& options)
   scene_options.seed = options_.seed;
   scene_options.texel_size = options_.texel_size;
   scene_options.num_threads = ResolveThreads(options_.threads);
-  scene_ = std::make_unique<synth::Scene>(synth::Scene::StandardRoom(scene_options));
+  synth::SceneChange change = synth::SceneChange::kNone;
+  synth::ParseSceneChange(options_.scene_change, &change);  // Valid: Check passed.
+  scene_ = std::make_unique<synth::Scene>(synth::ChangedRoomBoxes(change), scene_options);
   renderer_ = std::make_unique<synth::Renderer>(*scene_, camera_);
 }
 
@@ -344,6 +391,9 @@ void RunSynth(const SynthOptions& options) {
   nlohmann::ordered_json surfaces = nlohmann::ordered_json::array();
   for (const synth::Surface& s : sequence.scene().surfaces()) surfaces.push_back(s.name);
   info["surfaces"] = surfaces;
+  synth::SceneChange change = synth::SceneChange::kNone;
+  synth::ParseSceneChange(options.scene_change, &change);
+  info["scene_change"] = SceneChangeJson(synth::DescribeSceneChange(change));
   WriteText(dir / "synth.json", info.dump(2) + "\n");
 
   output.Commit();

@@ -85,6 +85,12 @@ struct SynthOptions {
   uint64_t seed = 0;
   // Texture resolution, metres per texel; in [0.0005, 0.05].
   double texel_size = 0.003;
+  // Scene edit (synth::SceneChange, scene.h): "none" renders the standard
+  // room; "moved-box" moves the screen and adds a crate, leaving everything
+  // else bit-identical (same textures, camera path and noise), so that a map of
+  // the standard room can be checked against the changed one. synth.json
+  // records where the room changed.
+  std::string scene_change = "none";
   // Worker threads; 0 = all hardware threads; in [0, 256]. The output does not
   // depend on it.
   int threads = 0;

@@ -6,6 +6,7 @@
 
 #include "common/errors.h"
 #include "common/testing.h"
+#include "stages/synth/scene.h"
 #include "stages/synth/synth.h"
 
 namespace rrslam {
@@ -55,6 +56,9 @@ TEST(SynthOptions, EachConstraintFails) {
       {"texel_size", [](SynthOptions& o) { o.texel_size = 0.1; }},
       {"threads", [](SynthOptions& o) { o.threads = -1; }},
       {"threads", [](SynthOptions& o) { o.threads = 257; }},
+      {"scene_change", [](SynthOptions& o) { o.scene_change = "foo"; }},
+      {"scene_change", [](SynthOptions& o) { o.scene_change = ""; }},
+      {"scene_change", [](SynthOptions& o) { o.scene_change = "Moved-Box"; }},
   };
   for (const Case& c : cases) {
     SynthOptions options;
@@ -227,6 +231,28 @@ TEST(SynthOptions, ShakeHasMotionBlurAndDepthNoiseUnlessSetOtherwise) {
   EXPECT_EQ(DefaultMotionBlur(synth::TrajectoryKind::kSweep), 0.0);
   EXPECT_EQ(DefaultMotionBlur(synth::TrajectoryKind::kRotation), 0.0);
   EXPECT_EQ(DefaultMotionBlur(synth::TrajectoryKind::kShake), kShakeMotionBlur);
+}
+
+TEST(SynthOptions, SceneChange) {
+  SynthOptions o;
+  EXPECT_EQ(o.scene_change, "none");  // The standard room by default.
+  EXPECT_NE(o.ToJson().find("\"scene_change\":\"none\""), std::string::npos) << o.ToJson();
+  std::string why;
+  o.scene_change = "moved-box";
+  EXPECT_TRUE(o.Check(&why)) << why;
+  EXPECT_NE(o.ToJson().find("\"scene_change\":\"moved-box\""), std::string::npos) << o.ToJson();
+  // Unknown names: one line naming the option, its value and the valid names.
+  o.scene_change = "foo";
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_EQ(why, "scene_change = foo; must be none or moved-box");
+  EXPECT_THROW(SyntheticSequence sequence(o), UsageError);
+  // Names round-trip.
+  for (auto change : {synth::SceneChange::kNone, synth::SceneChange::kMovedBox}) {
+    synth::SceneChange parsed = synth::SceneChange::kNone;
+    ASSERT_TRUE(synth::ParseSceneChange(synth::SceneChangeName(change), &parsed));
+    EXPECT_EQ(parsed, change);
+  }
+  EXPECT_EQ(synth::SceneChangeName(synth::SceneChange::kMovedBox), "moved-box");
 }
 
 TEST(SynthOptions, TrajectoryNamesRoundTrip) {

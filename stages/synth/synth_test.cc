@@ -352,6 +352,138 @@ TEST(RunSynth, ReplacesAnExistingSequenceOnlyWhenDone) {
   EXPECT_FALSE(fs::exists(dir / "seq.old.tmp"));
 }
 
+// Pixels where either view sees a face of a changed box (the moved box at its
+// old or new place, an added box), dilated by 2 pixels for the anti-aliased
+// outlines. CV_8UC1, 255 = changed.
+cv::Mat ChangedPixels(const synth::Scene& standard, const synth::Scene& changed,
+                      const PinholeCamera& camera, const Rigid3d& T_world_cam) {
+  const synth::SceneChangeInfo info = synth::DescribeSceneChange(synth::SceneChange::kMovedBox);
+  auto is_changed_face = [&](const synth::Surface& s) {
+    if (s.id >= static_cast<int>(standard.surfaces().size())) return true;  // Added.
+    for (const auto& m : info.moved) {
+      if (s.name.size() == m.from.name.size() + 3 && s.name.rfind(m.from.name + ".", 0) == 0) {
+        return true;
+      }
+    }
+    return false;
+  };
+  const cv::Mat a = synth::Renderer(standard, camera).Render(T_world_cam).surface_id;
+  const cv::Mat b = synth::Renderer(changed, camera).Render(T_world_cam).surface_id;
+  cv::Mat mask(a.size(), CV_8UC1, cv::Scalar(0));
+  for (int r = 0; r < a.rows; ++r) {
+    for (int c = 0; c < a.cols; ++c) {
+      const int sa = a.at<int>(r, c), sb = b.at<int>(r, c);
+      if ((sa >= 0 && is_changed_face(standard.surface(sa))) ||
+          (sb >= 0 && is_changed_face(changed.surface(sb)))) {
+        mask.at<uint8_t>(r, c) = 255;
+      }
+    }
+  }
+  cv::dilate(mask, mask, cv::Mat::ones(5, 5, CV_8UC1));
+  return mask;
+}
+
+TEST(RunSynth, MovedBoxChangesOnlyThePixelsOfTheChangedBoxes) {
+  // A full-turn loop (20 s) looks at the changed places and away from them.
+  SynthOptions o = SmallOptions({});
+  o.frames = 600;
+  SynthOptions c = o;
+  c.scene_change = "moved-box";
+  const SyntheticSequence standard(o), changed(c);
+  ASSERT_EQ(changed.groundtruth().size(), standard.groundtruth().size());
+  int frames_with_change = 0, frames_without = 0;
+  for (size_t i = 0; i < standard.size(); i += 20) {
+    const SynthFrame a = standard.Render(i), b = changed.Render(i);
+    ASSERT_EQ(a.T_world_cam.translation, b.T_world_cam.translation);
+    const cv::Mat mask =
+        ChangedPixels(standard.scene(), changed.scene(), standard.camera(), a.T_world_cam);
+    const int changed_pixels = cv::countNonZero(mask);
+    if (changed_pixels == 0) {
+      // Nothing changed in view: the same frame to the bit, depth noise and
+      // holes included.
+      ++frames_without;
+      EXPECT_EQ(cv::norm(a.color, b.color, cv::NORM_INF), 0.0) << i;
+      EXPECT_EQ(cv::norm(a.depth, b.depth, cv::NORM_INF), 0.0) << i;
+      continue;
+    }
+    // Elsewhere the colour is identical; so is the depth (noise is drawn per
+    // pixel), except where a hole appears in one frame only: the hole rate is
+    // normalized over the whole frame, which the change alters a little.
+    int holes_differ = 0, outside = 0, depth_differs_inside = 0;
+    for (int r = 0; r < mask.rows; ++r) {
+      for (int col = 0; col < mask.cols; ++col) {
+        const uint16_t da = a.depth.at<uint16_t>(r, col), db = b.depth.at<uint16_t>(r, col);
+        if (mask.at<uint8_t>(r, col)) {
+          if (da != db) ++depth_differs_inside;
+          continue;
+        }
+        ++outside;
+        ASSERT_EQ(a.color.at<cv::Vec3b>(r, col), b.color.at<cv::Vec3b>(r, col))
+            << "frame " << i << " pixel (" << col << ", " << r << ")";
+        if (da != 0 && db != 0) {
+          ASSERT_EQ(da, db) << "frame " << i << " pixel (" << col << ", " << r << ")";
+        } else if ((da == 0) != (db == 0)) {
+          ++holes_differ;
+        }
+      }
+    }
+    EXPECT_LT(holes_differ, 0.01 * outside) << i;
+    if (changed_pixels >= 500) {
+      // A clearly visible change: the depth differs there.
+      ++frames_with_change;
+      EXPECT_GT(depth_differs_inside, changed_pixels / 4) << i;
+    }
+  }
+  EXPECT_GE(frames_with_change, 3);
+  EXPECT_GE(frames_without, 3);
+}
+
+TEST(RunSynth, SynthJsonRecordsTheSceneChange) {
+  testing::TempDir dir;
+  SynthOptions o = SmallOptions(dir / "seq");
+  o.frames = 2;
+  RunSynth(o);
+  auto info = nlohmann::json::parse(ReadFileToString(dir / "seq" / "synth.json"));
+  EXPECT_EQ(info["options"]["scene_change"], "none");
+  EXPECT_EQ(info["scene_change"]["name"], "none");
+  EXPECT_TRUE(info["scene_change"]["moved"].empty());
+  EXPECT_TRUE(info["scene_change"]["added"].empty());
+  const size_t standard_surfaces = info["surfaces"].size();
+
+  o.scene_change = "moved-box";
+  RunSynth(o);
+  info = nlohmann::json::parse(ReadFileToString(dir / "seq" / "synth.json"));
+  EXPECT_EQ(info["options"]["scene_change"], "moved-box");
+  const auto& change = info["scene_change"];
+  EXPECT_EQ(change["name"], "moved-box");
+  const synth::SceneChangeInfo expected = synth::DescribeSceneChange(synth::SceneChange::kMovedBox);
+  auto vec = [](const nlohmann::json& j) {
+    return Eigen::Vector3d(j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>());
+  };
+  ASSERT_EQ(change["moved"].size(), 1u);
+  const auto& moved = change["moved"][0];
+  EXPECT_EQ(moved["box"], "screen");
+  EXPECT_EQ(moved["index"].get<int>(), expected.moved[0].index);
+  EXPECT_TRUE(vec(moved["from"]["centre"]).isApprox(expected.moved[0].from.centre_world));
+  EXPECT_TRUE(vec(moved["to"]["centre"]).isApprox(expected.moved[0].to.centre_world));
+  EXPECT_TRUE(vec(moved["to"]["size"]).isApprox(expected.moved[0].to.size));
+  EXPECT_GE(moved["displacement_m"].get<double>(), 0.5);
+  const auto regions = expected.ChangedRegions();
+  EXPECT_TRUE(vec(moved["from"]["bounds_min"]).isApprox(regions[0].min()));
+  EXPECT_TRUE(vec(moved["to"]["bounds_max"]).isApprox(regions[1].max()));
+  ASSERT_EQ(change["added"].size(), 1u);
+  const auto& added = change["added"][0];
+  EXPECT_EQ(added["box"], "crate3");
+  EXPECT_EQ(added["material"], "cardboard");
+  EXPECT_TRUE(vec(added["centre"]).isApprox(expected.added[0].box.centre_world));
+  EXPECT_TRUE(vec(added["size"]).isApprox(expected.added[0].box.size));
+  EXPECT_TRUE(vec(added["bounds_min"]).isApprox(regions[2].min()));
+  EXPECT_TRUE(vec(added["bounds_max"]).isApprox(regions[2].max()));
+  // The added box's faces come after every standard surface.
+  ASSERT_EQ(info["surfaces"].size(), standard_surfaces + 5);
+  EXPECT_EQ(info["surfaces"][standard_surfaces], "crate3.+x");
+}
+
 // The executable: exit codes and what it leaves behind.
 class SynthTool : public ::testing::Test {
  protected:
@@ -418,6 +550,19 @@ TEST_F(SynthTool, BadOptionsExit64AndWriteNothing) {
   EXPECT_TRUE(fs::is_empty(dir_.path()));
 }
 
+TEST_F(SynthTool, ChangeNamesItsValuesAndRejectsOthers) {
+  auto result = testing::RunTool(
+      "synth", "--out " + (dir_ / "seq").string() + small_ + " --change moved-box");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  const auto info = nlohmann::json::parse(ReadFileToString(dir_ / "seq" / "synth.json"));
+  EXPECT_EQ(info["scene_change"]["name"], "moved-box");
+  result = testing::RunTool("synth", "--out " + (dir_ / "bad").string() + small_ + " --change foo");
+  EXPECT_EQ(result.exit_code, 64) << result.output;
+  EXPECT_NE(result.output.find("scene_change = foo; must be none or moved-box"), std::string::npos)
+      << result.output;
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
+}
+
 TEST_F(SynthTool, UnwritableOutputExits73AndLeavesNothing) {
   // The parent folder does not exist.
   auto result = testing::RunTool("synth", "--out " + (dir_ / "missing" / "seq").string() + small_);
@@ -450,6 +595,8 @@ TEST_F(SynthTool, HelpListsEveryFlagWithItsDefault) {
   EXPECT_NE(result.output.find("0.001425"), std::string::npos);
   EXPECT_NE(result.output.find("loop"), std::string::npos);
   EXPECT_NE(result.output.find("shake"), std::string::npos);
+  EXPECT_NE(result.output.find("--change TEXT=none"), std::string::npos);
+  EXPECT_NE(result.output.find("moved-box"), std::string::npos);
 }
 
 }  // namespace
