@@ -38,41 +38,67 @@ nlohmann::ordered_json AteOptions::ToJson() const {
           {"correct_scale", correct_scale}};
 }
 
-AteResult ComputeAte(const Trajectory& gt_input, const Trajectory& est_input,
-                     const AteOptions& options) {
+namespace {
+
+// Both trajectories with distinct stamps and their stamp pairs.
+struct PairedTrajectories {
+  Trajectory gt, est;
+  size_t gt_duplicates = 0, est_duplicates = 0;
+  std::vector<std::pair<size_t, size_t>> matches;  // (index into gt, index into est)
+};
+
+// Checks `options`, pairs the stamps and throws DataError for an empty
+// trajectory, no pairs, or fewer than `min_pairs`.
+PairedTrajectories Pair(const Trajectory& gt_input, const Trajectory& est_input,
+                        const AteOptions& options, size_t min_pairs) {
   std::string why;
   if (!options.Check(&why)) throw UsageError("ATE options: " + why);
-  AteResult result;
-  result.scale = options.scale;
-  const Trajectory gt = DistinctByTimestamp(gt_input, &result.gt_duplicates);
-  const Trajectory est = DistinctByTimestamp(est_input, &result.est_duplicates);
-  result.gt_poses = gt.size();
-  result.est_poses = est.size();
+  PairedTrajectories paired;
+  paired.gt = DistinctByTimestamp(gt_input, &paired.gt_duplicates);
+  paired.est = DistinctByTimestamp(est_input, &paired.est_duplicates);
+  const Trajectory& gt = paired.gt;
+  const Trajectory& est = paired.est;
   if (gt.empty()) throw DataError("the ground truth has no poses");
   if (est.empty()) throw DataError("the estimate has no poses");
 
-  const auto matches =
+  paired.matches =
       AssociateTimestamps(Timestamps(gt), Timestamps(est), options.max_difference, options.offset);
-  if (matches.empty()) {
+  if (paired.matches.empty()) {
     throw DataError("no stamps matched: no estimated stamp (plus offset " +
                     Format("%g", options.offset) + " s) lies within max_difference " +
                     Format("%g", options.max_difference) +
                     " s of a ground-truth stamp (ground truth spans " + Span(gt) + ", estimate " +
                     Span(est) + "); check --offset and that both files are of the same sequence");
   }
-  if (matches.size() < kMinAtePairs) {
-    throw DataError("only " + std::to_string(matches.size()) +
+  if (paired.matches.size() < min_pairs) {
+    throw DataError("only " + std::to_string(paired.matches.size()) +
                     " stamp pair(s) matched within max_difference " +
                     Format("%g", options.max_difference) + " s; ATE needs at least " +
-                    std::to_string(kMinAtePairs));
+                    std::to_string(min_pairs));
   }
+  return paired;
+}
+
+}  // namespace
+
+AteAlignment ComputeAteAlignment(const Trajectory& gt_input, const Trajectory& est_input,
+                                 const AteOptions& options) {
+  const PairedTrajectories paired = Pair(gt_input, est_input, options, kMinAtePairs);
+  const auto& matches = paired.matches;
+  AteAlignment result;
+  result.scale = options.scale;
+  result.pairs = matches.size();
+  result.gt_poses = paired.gt.size();
+  result.est_poses = paired.est.size();
+  result.gt_duplicates = paired.gt_duplicates;
+  result.est_duplicates = paired.est_duplicates;
 
   const Eigen::Index n = static_cast<Eigen::Index>(matches.size());
   Eigen::Matrix3Xd gt_xyz(3, n), est_xyz(3, n);
   for (Eigen::Index k = 0; k < n; ++k) {
     const auto [i, j] = matches[k];
-    gt_xyz.col(k) = gt[i].T_world_cam.translation;
-    est_xyz.col(k) = options.scale * est[j].T_world_cam.translation;
+    gt_xyz.col(k) = paired.gt[i].T_world_cam.translation;
+    est_xyz.col(k) = options.scale * paired.est[j].T_world_cam.translation;
   }
   Alignment alignment;
   if (!options.correct_scale) {
@@ -84,26 +110,44 @@ AteResult ComputeAte(const Trajectory& gt_input, const Trajectory& est_input,
       throw DataError(
           "the paired estimated positions are all equal; the scale cannot be estimated");
     }
-    // Scale the estimate once; the rest is the rigid alignment of the scaled points.
-    est_xyz *= alignment.scale;
+    // The scale goes with the estimate (options.scale is 1 here, so
+    // scale * t is exact); the rest is the rigid alignment of the scaled points.
     result.scale = alignment.scale;
     result.scale_estimated = true;
     alignment.scale = 1.0;
   }
+  result.transform = alignment;
   result.T_gt_est =
       Rigid3d(Eigen::Quaterniond(alignment.rotation).normalized(), alignment.translation);
+  return result;
+}
+
+AteResult EvaluateAte(const Trajectory& gt_input, const Trajectory& est_input,
+                      const AteAlignment& alignment, const AteOptions& options) {
+  const PairedTrajectories paired = Pair(gt_input, est_input, options, /*min_pairs=*/1);
+  const Trajectory& gt = paired.gt;
+  const Trajectory& est = paired.est;
+  const auto& matches = paired.matches;
+  AteResult result;
+  result.T_gt_est = alignment.T_gt_est;
+  result.scale = alignment.scale;
+  result.scale_estimated = alignment.scale_estimated;
+  result.gt_poses = gt.size();
+  result.est_poses = est.size();
+  result.gt_duplicates = paired.gt_duplicates;
+  result.est_duplicates = paired.est_duplicates;
 
   std::vector<double> errors(matches.size());
   result.pairs.resize(matches.size());
-  for (Eigen::Index k = 0; k < n; ++k) {
+  for (size_t k = 0; k < matches.size(); ++k) {
     AtePair& pair = result.pairs[k];
     pair.gt_timestamp = gt[matches[k].first].timestamp;
     pair.est_timestamp = est[matches[k].second].timestamp;
-    pair.gt_position = gt_xyz.col(k);
-    pair.est_position = est_xyz.col(k);
+    pair.gt_position = gt[matches[k].first].T_world_cam.translation;
+    pair.est_position = alignment.scale * est[matches[k].second].T_world_cam.translation;
     // The rotation matrix itself (not its quaternion) so the figures follow
     // evaluate_ate.py's arithmetic as closely as possible.
-    pair.est_position_aligned = alignment * pair.est_position;
+    pair.est_position_aligned = alignment.transform * pair.est_position;
     pair.error = (pair.est_position_aligned - pair.gt_position).norm();
     errors[k] = pair.error;
   }
@@ -115,10 +159,14 @@ AteResult ComputeAte(const Trajectory& gt_input, const Trajectory& est_input,
     aligned.timestamp = pose.timestamp;
     aligned.T_world_cam =
         Rigid3d((result.T_gt_est.rotation * pose.T_world_cam.rotation).normalized(),
-                alignment * (result.scale * pose.T_world_cam.translation));
+                alignment.transform * (alignment.scale * pose.T_world_cam.translation));
     result.est_aligned.push_back(aligned);
   }
   return result;
+}
+
+AteResult ComputeAte(const Trajectory& gt, const Trajectory& est, const AteOptions& options) {
+  return EvaluateAte(gt, est, ComputeAteAlignment(gt, est, options), options);
 }
 
 nlohmann::ordered_json AteResultToJson(const AteResult& result) {

@@ -21,6 +21,7 @@
 
 #include "common/geometry.h"
 #include "common/trajectory.h"
+#include "stages/eval/alignment.h"
 #include "stages/eval/stats.h"
 
 namespace rrslam {
@@ -77,10 +78,57 @@ struct AteResult {
   bool scale_estimated = false;  // AteOptions::correct_scale.
 };
 
+// The transform ATE applies to an estimate, computed once from one
+// trajectory's pairs with the ground truth (ComputeAteAlignment) and applied to
+// that or another trajectory in the same world frame (EvaluateAte): an
+// estimated position t (in the estimate's world) becomes
+//   T_gt_est * (scale * t)   (ground-truth world, metres).
+struct AteAlignment {
+  // Maps the estimate's (scaled) world frame into the ground-truth world
+  // frame; the rigid part of the fit (its `scale` is 1).
+  Alignment transform;
+  // The same transform as a pose (normalized quaternion); for reports and
+  // orientations. Positions go through `transform`, as evaluate_ate.py.
+  Rigid3d T_gt_est;
+  // Factor applied to the estimated positions before `transform`:
+  // AteOptions::scale, or the estimated one when scale_estimated.
+  double scale = 1.0;
+  bool scale_estimated = false;  // AteOptions::correct_scale.
+  size_t pairs = 0;              // Stamp pairs the alignment was computed from (>= kMinAtePairs).
+  size_t gt_poses = 0;           // Distinct stamps of the ground truth it was computed with.
+  size_t est_poses = 0;          // Distinct stamps of the trajectory it was computed from.
+  size_t gt_duplicates = 0;      // Lines dropped for a repeated stamp, as in AteResult.
+  size_t est_duplicates = 0;
+};
+
+// The alignment of `est` to `gt` exactly as ComputeAte finds it: the same
+// pairing (max_difference, offset), the given scale, and Horn's rigid fit
+// (AlignRigid) or, with correct_scale, Umeyama's similarity (AlignSimilarity).
+// Same errors as ComputeAte: UsageError when `options` fail Check(),
+// DataError when no stamps pair or fewer than kMinAtePairs do, or when
+// correct_scale meets paired positions that are all equal.
+AteAlignment ComputeAteAlignment(const Trajectory& gt, const Trajectory& est,
+                                 const AteOptions& options = {});
+
+// The ATE of `est` against `gt` under a given `alignment`, without fitting
+// one: `est` is paired with `gt` by `options`' max_difference and offset,
+// and its positions are mapped by alignment.scale and alignment.transform
+// (options.scale and correct_scale are not used; the alignment carries the
+// scale). For an estimate in the same world frame as the trajectory the
+// alignment came from, e.g. a localization run on the map a mapping run
+// built: a fresh alignment would absorb an offset of the whole run, this
+// does not. Since no fit is made, one pair suffices. Throws UsageError when
+// `options` fail Check(), DataError when either trajectory is empty or no
+// stamps pair.
+AteResult EvaluateAte(const Trajectory& gt, const Trajectory& est, const AteAlignment& alignment,
+                      const AteOptions& options = {});
+
 // Computes the ATE of `est` against `gt`. Neither needs to be sorted; a stamp
 // that occurs more than once keeps its last pose (DistinctByTimestamp), as in
 // TUM's tools. Throws UsageError when `options` fail Check(), DataError when
 // no stamps pair within max_difference or fewer than kMinAtePairs do.
+// The same as EvaluateAte(gt, est, ComputeAteAlignment(gt, est, options),
+// options), bit for bit.
 AteResult ComputeAte(const Trajectory& gt, const Trajectory& est, const AteOptions& options = {});
 
 // Machine-readable result: pair and pose counts, "ate_m" statistics (metres)

@@ -221,6 +221,178 @@ TEST(ComputeAte, TooFewPairsAreDataErrors) {
   EXPECT_THROW(ComputeAte(Trajectory{}, gt), DataError);
 }
 
+// Every field of two results, compared exactly.
+void ExpectSameResult(const AteResult& a, const AteResult& b) {
+  EXPECT_EQ(a.T_gt_est.rotation.coeffs(), b.T_gt_est.rotation.coeffs());
+  EXPECT_EQ(a.T_gt_est.translation, b.T_gt_est.translation);
+  EXPECT_EQ(a.scale, b.scale);
+  EXPECT_EQ(a.scale_estimated, b.scale_estimated);
+  EXPECT_EQ(a.gt_poses, b.gt_poses);
+  EXPECT_EQ(a.est_poses, b.est_poses);
+  EXPECT_EQ(a.gt_duplicates, b.gt_duplicates);
+  EXPECT_EQ(a.est_duplicates, b.est_duplicates);
+  EXPECT_EQ(AteResultToJson(a).dump(), AteResultToJson(b).dump());
+  EXPECT_EQ(FormatAteReport(a), FormatAteReport(b));
+  EXPECT_EQ(FormatAteAssociations(a), FormatAteAssociations(b));
+  ASSERT_EQ(a.pairs.size(), b.pairs.size());
+  for (size_t k = 0; k < a.pairs.size(); ++k) {
+    EXPECT_EQ(a.pairs[k].gt_timestamp, b.pairs[k].gt_timestamp) << k;
+    EXPECT_EQ(a.pairs[k].est_timestamp, b.pairs[k].est_timestamp) << k;
+    EXPECT_EQ(a.pairs[k].est_position, b.pairs[k].est_position) << k;
+    EXPECT_EQ(a.pairs[k].est_position_aligned, b.pairs[k].est_position_aligned) << k;
+    EXPECT_EQ(a.pairs[k].error, b.pairs[k].error) << k;
+  }
+  ASSERT_EQ(a.est_aligned.size(), b.est_aligned.size());
+  for (size_t k = 0; k < a.est_aligned.size(); ++k) {
+    EXPECT_EQ(a.est_aligned[k].timestamp, b.est_aligned[k].timestamp);
+    EXPECT_EQ(a.est_aligned[k].T_world_cam.translation, b.est_aligned[k].T_world_cam.translation);
+    EXPECT_EQ(a.est_aligned[k].T_world_cam.rotation.coeffs(),
+              b.est_aligned[k].T_world_cam.rotation.coeffs());
+  }
+}
+
+// `trajectory` with `offset` (map frame, metres) added to the camera centres
+// of poses [begin, end); the others unchanged.
+Trajectory ShiftedRange(Trajectory trajectory, size_t begin, size_t end,
+                        const Eigen::Vector3d& offset) {
+  for (size_t i = begin; i < end; ++i) {
+    trajectory[i].T_world_cam =
+        Rigid3d(Eigen::Quaterniond::Identity(), offset) * trajectory[i].T_world_cam;
+  }
+  return trajectory;
+}
+
+TEST(EvaluateAte, AlignedWithTheEstimateItselfIsPlainAteBitForBit) {
+  const Trajectory gt = MakeGroundTruth(250);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0, 0.02);
+  Trajectory est = Transformed(gt, kWorldChange);
+  for (StampedPose& pose : est) {
+    pose.timestamp += 0.0041;
+    pose.T_world_cam.translation =
+        0.7 * pose.T_world_cam.translation + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  }
+  est.push_back(est[17]);  // A repeated stamp.
+  AteOptions rigid, scaled, similarity;
+  rigid.max_difference = 0.01;
+  rigid.offset = -0.001;
+  scaled.scale = 1.4;
+  similarity.correct_scale = true;
+  for (const AteOptions& options : {AteOptions{}, rigid, scaled, similarity}) {
+    const AteAlignment alignment = ComputeAteAlignment(gt, est, options);
+    const AteResult plain = ComputeAte(gt, est, options);
+    EXPECT_EQ(alignment.pairs, plain.pairs.size());
+    EXPECT_EQ(alignment.est_duplicates, 1u);
+    ExpectSameResult(EvaluateAte(gt, est, alignment, options), plain);
+    EXPECT_GT(plain.error.rmse, 0.01);
+  }
+}
+
+TEST(EvaluateAte, OffsetOfPartOfTheEstimateIsReportedExactly) {
+  // Mapping run A: the ground truth in the map's world frame. Run B is A with
+  // a rigid offset of 10 cm (map frame) on poses 100..199.
+  const Trajectory gt = MakeGroundTruth(300);
+  const Trajectory a = Transformed(gt, kWorldChange);
+  const Eigen::Vector3d offset(0.06, 0, -0.08);  // 10 cm.
+  const Trajectory b = ShiftedRange(a, 100, 200, offset);
+
+  // A fresh alignment of B spreads the offset over all its poses.
+  const AteResult plain = ComputeAte(gt, b);
+  EXPECT_LT(plain.error.max, 0.09);
+  EXPECT_GT(plain.pairs[0].error, 0.005);
+  EXPECT_LT(plain.error.rmse, 0.1 * std::sqrt(1.0 / 3) - 0.005);
+
+  const AteAlignment alignment = ComputeAteAlignment(gt, a);
+  EXPECT_EQ(alignment.pairs, 300u);
+  const AteResult result = EvaluateAte(gt, b, alignment);
+  ASSERT_EQ(result.pairs.size(), 300u);
+  for (size_t i = 0; i < 300; ++i) {
+    EXPECT_NEAR(result.pairs[i].error, (i >= 100 && i < 200) ? 0.1 : 0.0, 1e-9) << i;
+  }
+  EXPECT_NEAR(result.error.max, 0.1, 1e-9);
+  EXPECT_NEAR(result.error.min, 0.0, 1e-9);
+  EXPECT_NEAR(result.error.rmse, 0.1 * std::sqrt(1.0 / 3), 1e-9);
+  EXPECT_EQ(result.T_gt_est.translation, alignment.T_gt_est.translation);
+  // The aligned estimate carries the offset, rotated into the ground truth's frame.
+  EXPECT_LT((result.est_aligned[150].T_world_cam.translation - gt[150].T_world_cam.translation -
+             kWorldChange.Inverse().rotation * offset)
+                .norm(),
+            1e-9);
+}
+
+TEST(EvaluateAte, LocalizationRunOffsetFromTheMapIsNotHidden) {
+  // B localizes on A's map later in the sequence (poses 200..299 only), 10 cm
+  // off. Aligned by itself B looks perfect; aligned as the map, every pose is
+  // 10 cm off.
+  const Trajectory gt = MakeGroundTruth(300);
+  const Trajectory map_frame = Transformed(gt, kWorldChange);
+  const Trajectory a(map_frame.begin(), map_frame.begin() + 200);
+  const Trajectory later(map_frame.begin() + 200, map_frame.end());
+  const Trajectory b = ShiftedRange(later, 0, later.size(), Eigen::Vector3d(0, 0.1, 0));
+  EXPECT_LT(ComputeAte(gt, b).error.max, 1e-9);
+  const AteResult result = EvaluateAte(gt, b, ComputeAteAlignment(gt, a));
+  ASSERT_EQ(result.pairs.size(), 100u);
+  for (double value : {result.error.rmse, result.error.mean, result.error.median, result.error.min,
+                       result.error.max}) {
+    EXPECT_NEAR(value, 0.1, 1e-9);
+  }
+  EXPECT_EQ(result.est_aligned.size(), 100u);
+
+  // With --correct-scale the estimated scale goes with the alignment: a map at
+  // 0.8 of the true size, B off by 8 cm of map units, is 10 cm off.
+  Trajectory small_map = map_frame;
+  for (StampedPose& pose : small_map) pose.T_world_cam.translation *= 0.8;
+  const Trajectory small_a(small_map.begin(), small_map.begin() + 200);
+  const Trajectory small_b = ShiftedRange(Trajectory(small_map.begin() + 200, small_map.end()), 0,
+                                          100, Eigen::Vector3d(0.08, 0, 0));
+  AteOptions options;
+  options.correct_scale = true;
+  const AteResult scaled = EvaluateAte(gt, small_b, ComputeAteAlignment(gt, small_a, options));
+  EXPECT_TRUE(scaled.scale_estimated);
+  EXPECT_NEAR(scaled.scale, 1.25, 1e-12);
+  EXPECT_NEAR(scaled.error.min, 0.1, 1e-9);
+  EXPECT_NEAR(scaled.error.max, 0.1, 1e-9);
+}
+
+TEST(EvaluateAte, Errors) {
+  const Trajectory gt = MakeGroundTruth(20);
+  // The alignment needs kMinAtePairs pairs, as ComputeAte.
+  try {
+    ComputeAteAlignment(gt, Trajectory(gt.begin(), gt.begin() + 2));
+    FAIL() << "two pairs cannot fix an alignment";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("only 2 stamp pair(s)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("at least 3"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ComputeAteAlignment(gt, Trajectory{}), DataError);
+  EXPECT_THROW(ComputeAteAlignment(Trajectory{}, gt), DataError);
+  AteOptions correct_scale;
+  correct_scale.correct_scale = true;
+  Trajectory still = gt;
+  for (StampedPose& pose : still) pose.T_world_cam.translation = Eigen::Vector3d(1, 2, 3);
+  EXPECT_THROW(ComputeAteAlignment(gt, still, correct_scale), DataError);
+
+  // Under a given alignment one pair suffices, none does not.
+  const AteAlignment alignment = ComputeAteAlignment(gt, gt);
+  EXPECT_EQ(EvaluateAte(gt, Trajectory(gt.begin() + 5, gt.begin() + 6), alignment).pairs.size(),
+            1u);
+  Trajectory far = gt;
+  for (StampedPose& pose : far) pose.timestamp += 100;
+  try {
+    EvaluateAte(gt, far, alignment);
+    FAIL() << "no pair should match";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("no stamps matched"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(EvaluateAte(gt, Trajectory{}, alignment), DataError);
+  EXPECT_THROW(EvaluateAte(Trajectory{}, gt, alignment), DataError);
+
+  AteOptions bad;
+  bad.max_difference = -1;
+  EXPECT_THROW(ComputeAteAlignment(gt, gt, bad), UsageError);
+  EXPECT_THROW(EvaluateAte(gt, gt, alignment, bad), UsageError);
+}
+
 TEST(AteOptions, DefaultsPassAndEachConstraintFails) {
   std::string why;
   EXPECT_TRUE(AteOptions{}.Check(&why));

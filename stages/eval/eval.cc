@@ -101,13 +101,14 @@ std::string Lowercase(std::string text) {
   return text;
 }
 
-// Prefixes a data error of the computation with the files it concerns.
+// Prefixes a data error of the computation with the files it concerns (and
+// `role`, when given, e.g. the flag that named `est`).
 template <typename Fn>
-auto WithFiles(const fs::path& gt, const fs::path& est, Fn&& fn) {
+auto WithFiles(const fs::path& gt, const fs::path& est, Fn&& fn, const std::string& role = "") {
   try {
     return fn();
   } catch (const DataError& e) {
-    throw DataError(est.string() + " against " + gt.string() + ": " + e.what());
+    throw DataError(role + est.string() + " against " + gt.string() + ": " + e.what());
   }
 }
 
@@ -142,7 +143,10 @@ bool EvalAteOptions::Check(std::string* why) const {
     *why = "plot " + plot_path.string() + " must be a .png file";
     return false;
   }
-  return CheckOutputs({{"ground-truth", gt_path}, {"estimate", est_path}},
+  std::vector<std::pair<std::string, fs::path>> inputs = {{"ground-truth", gt_path},
+                                                          {"estimate", est_path}};
+  if (!align_with_path.empty()) inputs.emplace_back("--align-with", align_with_path);
+  return CheckOutputs(inputs,
                       {{"--out", report_path},
                        {"--plot", plot_path},
                        {"--save-associations", associations_path},
@@ -160,6 +164,8 @@ nlohmann::ordered_json EvalAteOptions::ToJson() const {
                               {"save_associations", associations_path.string()},
                               {"save_aligned", aligned_path.string()}};
   if (!plot_path.empty()) j["plot_options"] = plot.ToJson();
+  // Only when given, so that plain ATE's outputs stay as they were.
+  if (!align_with_path.empty()) j["align_with"] = align_with_path.string();
   return j;
 }
 
@@ -188,8 +194,26 @@ AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {
   if (!options.Check(&why)) throw UsageError(why);
   const Trajectory gt = ReadTrajectory(options.gt_path, "ground truth");
   const Trajectory est = ReadTrajectory(options.est_path, "estimate");
+  const bool align_with = !options.align_with_path.empty();
+  // Plain ATE aligns the estimate itself; --align-with aligns that trajectory
+  // and evaluates the estimate under its alignment.
+  const fs::path& source_path = align_with ? options.align_with_path : options.est_path;
+  Trajectory align_with_trajectory;
+  if (align_with) align_with_trajectory = ReadTrajectory(source_path, "alignment source");
+  const Trajectory& source = align_with ? align_with_trajectory : est;
+  const AteAlignment alignment = WithFiles(
+      options.gt_path, source_path, [&] { return ComputeAteAlignment(gt, source, options.ate); },
+      align_with ? "alignment (--align-with) " : "");
+  if (align_with) {
+    spdlog::info("alignment from {}: {} of {} poses paired with ground truth", source_path.string(),
+                 alignment.pairs, alignment.est_poses);
+    if (alignment.est_duplicates > 0) {
+      spdlog::warn("{}: {} repeated timestamp(s); each keeps its last pose, as TUM's tools do",
+                   source_path.string(), alignment.est_duplicates);
+    }
+  }
   const AteResult result = WithFiles(options.gt_path, options.est_path,
-                                     [&] { return ComputeAte(gt, est, options.ate); });
+                                     [&] { return EvaluateAte(gt, est, alignment, options.ate); });
   if (result.gt_duplicates > 0) {
     spdlog::warn("{}: {} repeated timestamp(s); each keeps its last pose, as TUM's tools do",
                  options.gt_path.string(), result.gt_duplicates);
@@ -227,9 +251,15 @@ AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {
                                    .dump()}});
     files.emplace_back(options.plot_path, std::string(png.begin(), png.end()));
   }
-  const std::string report =
-      Report(options.json, "ate", options.gt_path, options.est_path, options.ate.ToJson(),
-             AteResultToJson(result), FormatAteReport(result));
+  nlohmann::ordered_json results = AteResultToJson(result);
+  std::string text = FormatAteReport(result);
+  if (align_with) {
+    results["alignment"] = {{"source", source_path.string()}, {"pairs", alignment.pairs}};
+    text += "alignment_source " + source_path.string() + "\nalignment_pose_pairs " +
+            std::to_string(alignment.pairs) + " pairs\n";
+  }
+  const std::string report = Report(options.json, "ate", options.gt_path, options.est_path,
+                                    options.ate.ToJson(), results, std::move(text));
   if (!options.report_path.empty()) files.emplace_back(options.report_path, report);
   WriteAll(std::move(files));
   if (options.report_path.empty()) {

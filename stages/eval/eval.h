@@ -35,6 +35,15 @@ struct EvalAteOptions {
   std::filesystem::path associations_path;
   // The whole estimate after scale and alignment, TUM format; empty: none.
   std::filesystem::path aligned_path;
+  // Trajectory (TUM format) to compute the alignment from instead of the
+  // estimate; empty: the estimate itself (plain ATE). The alignment is found
+  // between this trajectory and the ground truth exactly as plain ATE would
+  // find it for this trajectory (pairing, scale, --correct-scale), then
+  // applied unchanged to the estimate (EvaluateAte). For an estimate in the
+  // same world frame, e.g. a localization run (--est) on the map a mapping
+  // run (--align-with) built: the error then includes any offset of the
+  // estimate against the map, which a fresh alignment would absorb.
+  std::filesystem::path align_with_path;
 
   // Names the violated constraint: missing input, invalid ATE or plot option,
   // an output that is an input or another output.
@@ -56,8 +65,11 @@ struct EvalRpeOptions {
 };
 
 // Runs `rrslam-eval ate`. Throws UsageError (invalid options), NoInputError
-// (missing input), DataError (malformed input, no pairs), CantCreateError
-// (an output cannot be written; then no output file is written).
+// (missing input), DataError (malformed input, no pairs, fewer than
+// kMinAtePairs between the trajectory aligned from and the ground truth),
+// CantCreateError (an output cannot be written; then no output file is
+// written). With align_with_path the report gains "alignment": the source
+// path and the number of pairs the alignment was computed from.
 AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out);
 
 // Runs `rrslam-eval rpe`, with the same errors.

@@ -206,12 +206,138 @@ TEST_F(EvalTool, AteCorrectScalePrintsTheEstimatedScale) {
   EXPECT_NE(both.output.find("correct_scale"), std::string::npos) << both.output;
 }
 
+// The lines of a file that are not '#' comments.
+std::string DataLines(const fs::path& path) {
+  std::istringstream lines(ReadFileToString(path));
+  std::string line, out;
+  while (std::getline(lines, line)) {
+    if (!line.empty() && line[0] != '#') out += line + "\n";
+  }
+  return out;
+}
+
+TEST_F(EvalTool, AteAlignWithTheEstimateItselfIsPlainAte) {
+  // A noisy estimate, so that the alignment and the errors are not trivial.
+  Trajectory est = ReadTumTrajectory(est_);
+  for (size_t i = 0; i < est.size(); ++i) {
+    est[i].T_world_cam.translation +=
+        0.01 * Eigen::Vector3d(std::sin(7.0 * i), std::cos(3.0 * i), std::sin(5.0 * i + 1));
+  }
+  WriteTumTrajectory(est_, est);
+  for (const std::string flags : {"", " --correct-scale"}) {
+    const std::string plain_dir = (dir_ / "plain").string() + (flags.empty() ? "" : "_cs");
+    const std::string with_dir = (dir_ / "with").string() + (flags.empty() ? "" : "_cs");
+    fs::create_directories(plain_dir);
+    fs::create_directories(with_dir);
+    auto outputs = [&](const std::string& dir) {
+      return " --save-associations " + Quote(fs::path(dir) / "pairs.txt") + " --save-aligned " +
+             Quote(fs::path(dir) / "aligned.txt");
+    };
+    const auto plain = RunStdout("ate --json " + Inputs() + flags + outputs(plain_dir));
+    const auto with = RunStdout("ate --json " + Inputs() + flags + " --align-with " + Quote(est_) +
+                                outputs(with_dir));
+    ASSERT_EQ(plain.exit_code, 0) << plain.output;
+    ASSERT_EQ(with.exit_code, 0) << with.output;
+    auto json = nlohmann::json::parse(with.output);
+    EXPECT_EQ(json["alignment"]["source"], est_.string());
+    EXPECT_EQ(json["alignment"]["pairs"], 150);
+    json.erase("alignment");
+    const auto plain_json = nlohmann::json::parse(plain.output);
+    EXPECT_FALSE(plain_json.contains("alignment"));
+    EXPECT_EQ(json.dump(), plain_json.dump());  // Numbers at full precision.
+    EXPECT_GT(plain_json["ate_m"]["rmse"].get<double>(), 0.005);
+    for (const char* file : {"pairs.txt", "aligned.txt"}) {
+      EXPECT_EQ(DataLines(fs::path(with_dir) / file), DataLines(fs::path(plain_dir) / file))
+          << file;
+    }
+  }
+}
+
+TEST_F(EvalTool, AteAlignWithReportsTheOffsetOfALocalizationRun) {
+  // Mapping run A: all 150 poses in the map frame. Localization run B: the
+  // last 60, 10 cm off in the map frame.
+  const Trajectory a = Moved(MakeGroundTruth(150), 0.004);
+  Trajectory b(a.begin() + 90, a.end());
+  for (StampedPose& pose : b) pose.T_world_cam.translation += Eigen::Vector3d(0, 0.06, 0.08);
+  const fs::path a_path = dir_ / "mapping.txt";
+  WriteTumTrajectory(a_path, a);
+  WriteTumTrajectory(est_, b);
+
+  auto r = RunStdout("ate --json " + Inputs());  // Aligned by itself B looks perfect.
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_LT(nlohmann::json::parse(r.output)["ate_m"]["max"].get<double>(), 1e-6);
+
+  const fs::path pairs = dir_ / "pairs.txt";
+  r = RunStdout("ate --json " + Inputs() + " --align-with " + Quote(a_path) +
+                " --save-associations " + Quote(pairs));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto json = nlohmann::json::parse(r.output);
+  EXPECT_EQ(json["pairs"], 60);
+  EXPECT_EQ(json["est_poses"], 60);
+  EXPECT_EQ(json["alignment"]["source"], a_path.string());
+  EXPECT_EQ(json["alignment"]["pairs"], 150);
+  // TUM files carry 9 significant decimals; 1e-6 leaves room for that.
+  for (const char* stat : {"rmse", "mean", "median", "min", "max"}) {
+    EXPECT_NEAR(json["ate_m"][stat].get<double>(), 0.1, 1e-6) << stat;
+  }
+  // The pairs are B's, aligned as A; the header records the option.
+  const std::string pairs_text = ReadFileToString(pairs);
+  EXPECT_EQ(std::count(pairs_text.begin(), pairs_text.end(), '\n'), 60 + 2);
+  EXPECT_NE(pairs_text.find("\"align_with\""), std::string::npos);
+
+  const auto text = RunTool("eval", "ate " + Inputs() + " --align-with " + Quote(a_path));
+  ASSERT_EQ(text.exit_code, 0) << text.output;
+  EXPECT_NE(text.output.find("compared_pose_pairs 60 pairs\n"), std::string::npos) << text.output;
+  EXPECT_NE(text.output.find("absolute_translational_error.rmse 0.100000 m\n"), std::string::npos)
+      << text.output;
+  EXPECT_NE(text.output.find("alignment_source " + a_path.string() + "\n"), std::string::npos)
+      << text.output;
+  EXPECT_NE(text.output.find("alignment_pose_pairs 150 pairs\n"), std::string::npos) << text.output;
+}
+
+TEST_F(EvalTool, AteAlignWithErrors) {
+  // A missing file is 66 and named.
+  auto r = RunTool("eval", "ate " + Inputs() + " --align-with " + Quote(dir_ / "no_map.txt"));
+  EXPECT_EQ(r.exit_code, 66) << r.output;
+  EXPECT_NE(r.output.find("no_map.txt"), std::string::npos) << r.output;
+  // Fewer than 3 pairs with the ground truth is 65, naming the flag and the file.
+  const fs::path two = dir_ / "two.txt";
+  WriteTumTrajectory(two, Moved(MakeGroundTruth(2)));
+  r = RunTool("eval", "ate " + Inputs() + " --align-with " + Quote(two));
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("--align-with"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("two.txt"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("at least 3"), std::string::npos) << r.output;
+  // No stamps of it near the ground truth's: 65.
+  r = RunTool("eval", "ate " + Inputs() + " --align-with " + Quote(two) + " --offset 50");
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  // Under that alignment the estimate needs only one pair, but not none.
+  WriteTumTrajectory(est_, Moved(MakeGroundTruth(1)));
+  const fs::path map = dir_ / "map.txt";
+  WriteTumTrajectory(map, Moved(MakeGroundTruth(150)));
+  r = RunTool("eval", "ate " + Inputs() + " --align-with " + Quote(map));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("compared_pose_pairs 1 pairs"), std::string::npos) << r.output;
+  Trajectory late = Moved(MakeGroundTruth(5));
+  for (StampedPose& pose : late) pose.timestamp += 100;
+  WriteTumTrajectory(est_, late);
+  r = RunTool("eval", "ate " + Inputs() + " --align-with " + Quote(map));
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("no stamps matched"), std::string::npos) << r.output;
+  // An output may not overwrite it.
+  r = RunTool("eval",
+              "ate " + Inputs() + " --align-with " + Quote(map) + " --save-aligned " + Quote(map));
+  EXPECT_EQ(r.exit_code, 64) << r.output;
+  EXPECT_NE(r.output.find("--align-with"), std::string::npos) << r.output;
+  EXPECT_EQ(ReadTumTrajectory(map).size(), 150u);
+}
+
 TEST_F(EvalTool, HelpListsFlagsWithDefaults) {
   const auto r = RunTool("eval", "ate --help");
   EXPECT_EQ(r.exit_code, 0);
   for (const char* text :
        {"--max-diff", "0.02", "--offset", "--scale", "--plot", "--json", "--save-associations",
-        "--save-aligned", "--plot-axes", "--correct-scale"}) {
+        "--save-aligned", "--plot-axes", "--correct-scale", "--align-with"}) {
     EXPECT_NE(r.output.find(text), std::string::npos) << text;
   }
   const auto rpe = RunTool("eval", "rpe --help");

@@ -59,6 +59,15 @@ void BindAte(CLI::App* command, rrslam::EvalAteOptions* options) {
   command->add_flag("--correct-scale", options->ate.correct_scale,
                     "Estimate the scale too (Umeyama Sim(3) alignment, as evo's --correct_scale); "
                     "prints estimated_scale");
+  command->add_option(
+      "--align-with", options->align_with_path,
+      "Compute the alignment from this trajectory (TUM format, same world frame as --est) "
+      "instead of from --est, and apply it unchanged to --est. E.g. --align-with the mapping "
+      "run's trajectory and --est a later localization run on that map: the error then shows "
+      "where the localization puts the camera in the map's frame, offsets included, which "
+      "aligning --est itself would hide. Pairing, --scale and --correct-scale apply to this "
+      "trajectory as to --est in plain ATE; it needs at least 3 pairs with --gt, --est at "
+      "least 1. Default: align --est itself");
   command->add_flag("--json", options->json, "Print the result as JSON instead of text");
   command->add_option("--out", options->report_path,
                       "Write the result (text or JSON) to this file instead of stdout");
