@@ -37,6 +37,33 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
   app.add_flag_callback(
       "--no-loop-closing", [o] { o->loop_closing = false; },
       "Turn loop closing (and its global bundle adjustment) off");
+  // Offline maps.
+  app.add_option("--save-map", o->save_map,
+                 "Write the final map (rrslam.map: keyframes, map points, graphs, bags of "
+                 "words) to this file, atomically, after the last global BA")
+      ->capture_default_str();
+  app.add_option("--load-map", o->load_map,
+                 "Start on this saved map (same vocabulary tree and camera settings): the first "
+                 "frames relocalize in it, poses are in its world frame; mapping goes on in it "
+                 "unless --localization-only")
+      ->capture_default_str();
+  app.add_option("--first-frame", o->first_frame,
+                 "Start at this frame of the sequence (index from 0)")
+      ->capture_default_str();
+  app.add_flag("--localization-only", o->localization_only,
+               "With --load-map: localize in the map without changing it (ORB-SLAM2's "
+               "localization mode: visual odometry where the map is not seen)");
+  app.add_option("--changed-point-views", o->changed_point_views,
+                 "Restore mapping: cull a loaded point predicted visible in this many frames "
+                 "but found in fewer than --changed-point-ratio of them (0 = never)")
+      ->capture_default_str();
+  app.add_option("--changed-point-ratio", o->changed_point_ratio,
+                 "Restore mapping: see --changed-point-views; in [0, 1]")
+      ->capture_default_str();
+  app.add_option("--changed-point-absent", o->changed_point_absent,
+                 "Restore mapping: ... and seen through (a keypoint at its pixel measured a "
+                 "depth clearly beyond it) in at least this many frames")
+      ->capture_default_str();
   // Departures from ORB-SLAM2; docs/track.md gives the measurements.
   app.add_option("--close-tracked", o->close_tracked,
                  "Keyframe when fewer close points are tracked (ORB-SLAM2: 100)")

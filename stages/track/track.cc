@@ -12,21 +12,26 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "common/atomic_file.h"
+#include "common/binary_header.h"
 #include "common/cli.h"
 #include "common/clock.h"
 #include "common/dataset.h"
 #include "common/errors.h"
 #include "common/progress.h"
 #include "common/settings.h"
+#include "common/text.h"
 #include "common/trajectory.h"
 #include "stages/extract/features_file.h"
 #include "stages/extract/orb_extractor.h"
+#include "stages/mapstore/map_file.h"
 #include "stages/track/data/frame.h"
 #include "stages/track/data/keyframe_database.h"
 #include "stages/track/data/map.h"
+#include "stages/track/data/map_io.h"
 #include "stages/track/data/sensor_model.h"
 #include "stages/track/module/local_mapper.h"
 #include "stages/track/module/loop_closer.h"
@@ -179,6 +184,24 @@ std::vector<size_t> MatchFeatureFrames(const std::string& name, const FeaturesFi
   return frames;
 }
 
+// What the run knows of the map it loaded (none: every field zero/empty).
+struct LoadedMap {
+  std::string identity;
+  uint64_t next_keyframe_id = 0;
+  uint64_t next_map_point_id = 0;
+  size_t keyframes = 0;
+  size_t map_points = 0;
+};
+
+// A map file's identity: XXH3-64 of its sections' checksums (the content,
+// not the file's name or time).
+std::string MapIdentity(const MapFileInfo& info) {
+  std::vector<uint64_t> checksums;
+  for (const MapSectionInfo& section : info.sections) checksums.push_back(section.checksum);
+  return Hex64(Checksum64(
+      {reinterpret_cast<const uint8_t*>(checksums.data()), checksums.size() * sizeof(uint64_t)}));
+}
+
 double PeakRssMegabytes() {
   struct rusage usage {};
   getrusage(RUSAGE_SELF, &usage);
@@ -209,6 +232,24 @@ bool TrackOptions::Check(std::string* why) const {
     return fail("--extraction-threads = " + std::to_string(extraction_threads) +
                 "; must be in [1, 16]");
   }
+  if (first_frame < 0) {
+    return fail("--first-frame = " + std::to_string(first_frame) + "; must be >= 0");
+  }
+  if (localization_only && load_map.empty()) {
+    return fail("--localization-only needs a map to localize in: give --load-map");
+  }
+  if (changed_point_views < 0) {
+    return fail("--changed-point-views = " + std::to_string(changed_point_views) +
+                "; must be >= 0");
+  }
+  if (changed_point_absent < 0) {
+    return fail("--changed-point-absent = " + std::to_string(changed_point_absent) +
+                "; must be >= 0");
+  }
+  if (!(changed_point_ratio >= 0 && changed_point_ratio <= 1)) {
+    return fail("--changed-point-ratio = " + std::to_string(changed_point_ratio) +
+                "; must be in [0, 1]");
+  }
   return true;
 }
 
@@ -227,11 +268,19 @@ nlohmann::json TrackOptions::ToJson() const {
           {"ba_depth_fallback", ba_depth_fallback},
           {"small_vocab_groups", small_vocab_groups},
           {"expand_all_local_keyframes", expand_all_local_keyframes},
-          {"loop_closing", loop_closing}};
+          {"loop_closing", loop_closing},
+          {"save_map", save_map.string()},
+          {"load_map", load_map.string()},
+          {"first_frame", first_frame},
+          {"localization_only", localization_only},
+          {"changed_point_views", changed_point_views},
+          {"changed_point_ratio", changed_point_ratio},
+          {"changed_point_absent", changed_point_absent}};
 }
 
 TrackSummary RunTrack(const TrackOptions& options) {
   const auto run_start = SteadyClock::now();
+  const double startup_process_to_run_ms = MillisecondsSince(ProcessStartTime());
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   const bool realtime = options.mode == "realtime";
@@ -257,6 +306,10 @@ TrackSummary RunTrack(const TrackOptions& options) {
   } else {
     for (size_t i = 0; i < sequence.size(); ++i) frames.push_back(i);
   }
+  if (options.first_frame > 0) {
+    const size_t first = static_cast<size_t>(options.first_frame);
+    frames.erase(frames.begin(), std::lower_bound(frames.begin(), frames.end(), first));
+  }
   if (options.max_frames > 0 && frames.size() > static_cast<size_t>(options.max_frames)) {
     frames.resize(options.max_frames);
   }
@@ -265,9 +318,13 @@ TrackSummary RunTrack(const TrackOptions& options) {
                     std::to_string(frames.size()) +
                     " frame(s) to track; tracking needs at least 2");
   }
+  TrackSummary summary;
+  TrackStartup& startup = summary.startup;
+  auto vocabulary_start = SteadyClock::now();
   const Vocabulary vocabulary = Vocabulary::Load(options.vocabulary);
   if (vocabulary.empty())
     throw DataError(options.vocabulary.string() + ": vocabulary has no words");
+  startup.vocabulary_load_ms = MillisecondsSince(vocabulary_start);
 
   // The image size comes from the settings or from the first image.
   int width = settings.width, height = settings.height;
@@ -279,6 +336,9 @@ TrackSummary RunTrack(const TrackOptions& options) {
   const SensorModel sensor(settings, width, height);
 
   AtomicOutput output(options.out, AtomicOutput::Kind::kDirectory);
+  // Reserved now, so a --save-map that cannot be written fails before tracking.
+  std::optional<AtomicOutput> map_output;
+  if (!options.save_map.empty()) map_output.emplace(options.save_map);
 
   spdlog::info("track: {} frames of {} ({} mode), vocabulary {}", frames.size(),
                options.sequence.string(), options.mode, vocabulary.Identity());
@@ -295,11 +355,42 @@ TrackSummary RunTrack(const TrackOptions& options) {
   LocalMapperOptions mapper_options;
   mapper_options.bow_levels_up = bow_levels_up;
   mapper_options.bundle_adjustment.depth_fallback = options.ba_depth_fallback;
+  mapper_options.changed_point_min_views = options.changed_point_views;
+  mapper_options.changed_point_min_found_ratio = options.changed_point_ratio;
+  mapper_options.changed_point_min_absent = options.changed_point_absent;
+  tracker_options.localization_only = options.localization_only;
+  tracker_options.restore_mapping = !options.load_map.empty() && !options.localization_only;
   LocalMapper mapper(sensor, vocabulary, &map, &database, mapper_options);
   Tracker tracker(sensor, vocabulary, &map, &mapper, database, tracker_options);
   LoopCloser closer(sensor, vocabulary, &map, &database, &mapper);
   if (options.loop_closing) mapper.SetKeyFrameSink([&closer](KeyFrame* kf) { closer.Enqueue(kf); });
-  if (realtime) {
+
+  // A saved map: loaded, checked against this camera and vocabulary, and
+  // its keyframe database rebuilt; tracking starts lost in it.
+  const MapCamera camera = MapCameraFrom(settings, width, height);
+  LoadedMap loaded;
+  if (!options.load_map.empty()) {
+    const auto map_start = SteadyClock::now();
+    const std::string source = options.load_map.string();
+    MapFileInfo info;
+    MapData data = ReadMapFile(options.load_map, &info);
+    CheckMapCompatible(data, camera, vocabulary, source);
+    startup.map_read_ms = MillisecondsSince(map_start);
+    loaded.next_keyframe_id = data.next_keyframe_id;
+    loaded.next_map_point_id = data.next_map_point_id;
+    loaded.keyframes = data.keyframes.size();
+    loaded.map_points = data.map_points.size();
+    LoadMapData(std::move(data), sensor, vocabulary, bow_levels_up, &map, &database, source);
+    startup.map_load_ms = MillisecondsSince(map_start);
+    loaded.identity = MapIdentity(info);
+    tracker.StartOnLoadedMap();
+    if (!options.localization_only) mapper.WatchLoadedPoints(map.MapPoints());
+    spdlog::info("track: map {} loaded in {:.1f} ms: {} keyframes, {} map points ({})", source,
+                 startup.map_load_ms, loaded.keyframes, loaded.map_points,
+                 options.localization_only ? "localization only" : "restore mapping");
+  }
+  const bool mapping = !options.localization_only;
+  if (realtime && mapping) {
     mapper.Start();
     if (options.loop_closing) closer.Start();
   }
@@ -348,7 +439,11 @@ TrackSummary RunTrack(const TrackOptions& options) {
     Frame frame(k, timestamp,
                 BuildFrameFeatures(sensor, std::move(keypoints), std::move(descriptors)));
     bool new_keyframe = false;
-    tracker.Track(std::move(frame), &new_keyframe);
+    const bool tracked = tracker.Track(std::move(frame), &new_keyframe);
+    if (tracked && startup.first_pose_frame < 0) {
+      startup.first_pose_ms = MillisecondsSince(ProcessStartTime());
+      startup.first_pose_frame = static_cast<int64_t>(index);
+    }
     if (tracker.reset_requested()) {
       // ORB-SLAM2's System::Reset: the mapper drops its work, the map and the
       // keyframe database are emptied, and the next frame initializes anew.
@@ -368,7 +463,7 @@ TrackSummary RunTrack(const TrackOptions& options) {
     }
     progress.Advance();
   }
-  if (realtime) {
+  if (realtime && mapping) {
     mapper.Stop();
     closer.Stop();
   }
@@ -390,7 +485,6 @@ TrackSummary RunTrack(const TrackOptions& options) {
   }
 
   // Outputs.
-  TrackSummary summary;
   summary.frames = frames.size();
   for (const TrackedFrame& r : tracker.records()) {
     if (r.tracked) {
@@ -413,6 +507,38 @@ TrackSummary RunTrack(const TrackOptions& options) {
   };
   write("CameraTrajectory.txt", FormatTumTrajectory(camera_trajectory));
   write("KeyFrameTrajectory.txt", FormatTumTrajectory(keyframe_trajectory));
+
+  // The map file, complete but not yet committed (the folder and the map
+  // are committed together at the end).
+  double map_save_ms = 0;
+  size_t map_file_bytes = 0;
+  std::string saved_identity;
+  if (map_output) {
+    const auto save_start = SteadyClock::now();
+    nlohmann::json metadata;
+    metadata["producer"] = Producer("track");
+    metadata["options"] = options.ToJson();
+    metadata["settings"] = settings.source.string();
+    metadata["frames"] = {{"first", frames.front()}, {"last", frames.back()}};
+    const MapData data = ToMapData(map, camera, vocabulary, options.vocabulary.filename().string(),
+                                   bow_levels_up, metadata.dump());
+    ValidateMapData(data, options.save_map.string() + " (before saving)");
+    const std::vector<uint8_t> bytes = EncodeMap(data);
+    {
+      std::ofstream out(map_output->temp_path(), std::ios::binary);
+      out.write(reinterpret_cast<const char*>(bytes.data()),
+                static_cast<std::streamsize>(bytes.size()));
+      out.flush();
+      if (!out) throw CantCreateError(options.save_map.string() + ": cannot write");
+    }
+    map_file_bytes = bytes.size();
+    saved_identity = MapIdentity(ReadMapFileInfo(bytes, options.save_map.string()));
+    map_output->Commit();
+    map_save_ms = MillisecondsSince(save_start);
+    spdlog::info("track: map saved to {} in {:.1f} ms ({} keyframes, {} map points, {} bytes)",
+                 options.save_map.string(), map_save_ms, data.keyframes.size(),
+                 data.map_points.size(), bytes.size());
+  }
 
   const LocalMappingCounters& counters = mapper.counters();
   const TimingSummary tracking = SummarizeTimings(tracking_ms);
@@ -449,22 +575,19 @@ TrackSummary RunTrack(const TrackOptions& options) {
   nlohmann::json loop_list = nlohmann::json::array();
   std::vector<double> global_ba_ms;
   for (const LoopClosure& l : loops.loops) {
-    loop_list.push_back(
-        {{"keyframe", l.keyframe},
-         {"matched_keyframe", l.matched},
-         {"frame", l.frame},
-         {"matched_frame", l.matched_frame},
-         {"timestamp", sequence.frame(frames.at(l.frame)).rgb_timestamp},
-         {"matched_timestamp", sequence.frame(frames.at(l.matched_frame)).rgb_timestamp},
-         {"bow_matches", l.bow_matches},
-         {"ransac_inliers", l.ransac_inliers},
-         {"inliers", l.optimized_inliers},
-         {"matches", l.matches},
-         {"correction_m", l.correction_m},
-         {"correction_deg", l.correction_deg},
-         {"correction_ms", l.correction_ms},
-         {"global_ba_ms", l.global_ba_ms},
-         {"global_ba_aborted", l.global_ba_aborted}});
+    loop_list.push_back({{"keyframe", l.keyframe},
+                         {"matched_keyframe", l.matched},
+                         {"timestamp", l.timestamp},
+                         {"matched_timestamp", l.matched_timestamp},
+                         {"bow_matches", l.bow_matches},
+                         {"ransac_inliers", l.ransac_inliers},
+                         {"inliers", l.optimized_inliers},
+                         {"matches", l.matches},
+                         {"correction_m", l.correction_m},
+                         {"correction_deg", l.correction_deg},
+                         {"correction_ms", l.correction_ms},
+                         {"global_ba_ms", l.global_ba_ms},
+                         {"global_ba_aborted", l.global_ba_aborted}});
     if (l.global_ba_ms > 0) global_ba_ms.push_back(l.global_ba_ms);
   }
   report["loop_closing"] = {{"enabled", options.loop_closing},
@@ -487,6 +610,39 @@ TrackSummary RunTrack(const TrackOptions& options) {
       {"loop_s", loop_s},
       {"total_s", std::chrono::duration<double>(SteadyClock::now() - run_start).count()},
       {"frame_rate_hz", frames.size() / loop_s}};
+  report["startup"] = {{"process_to_run_ms", startup_process_to_run_ms},
+                       {"vocabulary_load_ms", startup.vocabulary_load_ms},
+                       {"map_load_ms", startup.map_load_ms},
+                       {"map_read_ms", startup.map_read_ms},
+                       {"first_pose_ms", startup.first_pose_ms},
+                       {"first_pose_frame", startup.first_pose_frame}};
+  {
+    // Loaded objects still in the map, and objects this run added.
+    size_t kept_keyframes = 0, kept_points = 0, added_keyframes = 0, added_points = 0;
+    for (const KeyFrame* kf : map.KeyFrames()) {
+      (kf->id() < loaded.next_keyframe_id ? kept_keyframes : added_keyframes) += 1;
+    }
+    for (const MapPoint* p : map.MapPoints()) {
+      (p->id() < loaded.next_map_point_id ? kept_points : added_points) += 1;
+    }
+    report["map"] = {{"loaded", options.load_map.string()},
+                     {"loaded_identity", loaded.identity},
+                     {"mode", options.load_map.empty()    ? "new map"
+                              : options.localization_only ? "localization only"
+                                                          : "restore mapping"},
+                     {"keyframes_loaded", loaded.keyframes},
+                     {"map_points_loaded", loaded.map_points},
+                     {"keyframes_added", added_keyframes},
+                     {"map_points_added", added_points},
+                     {"keyframes_culled", loaded.keyframes - kept_keyframes},
+                     {"map_points_culled", loaded.map_points - kept_points},
+                     {"changed_points_culled", counters.culled_changed_points},
+                     {"visual_odometry_frames", tracker.visual_odometry_frames()},
+                     {"saved", options.save_map.string()},
+                     {"saved_identity", saved_identity},
+                     {"save_ms", map_save_ms},
+                     {"file_bytes", map_file_bytes}};
+  }
   report["peak_rss_mb"] = PeakRssMegabytes();
   write("run.json", report.dump(2) + "\n");
   output.Commit();

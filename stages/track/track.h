@@ -7,9 +7,12 @@
 //   CameraTrajectory.txt    pose of every tracked frame (TUM format)
 //   KeyFrameTrajectory.txt  pose of every keyframe in the final map (TUM format)
 //   run.json                counts, lost frames, vocabulary identity, options,
-//                           producer, timings (see docs/track.md)
+//                           producer, timings, start-up and map figures
+//                           (see docs/track.md)
+// and, with --save-map, the map file (rrslam.map, stages/mapstore).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -64,10 +67,45 @@ struct TrackOptions {
   // after each loop); off: tracking and local mapping only.
   bool loop_closing = true;
 
+  // Offline maps (docs/mapstore.md).
+  // Map file (rrslam.map) written at the end of the run, after the last
+  // global BA, atomically; empty = none.
+  std::filesystem::path save_map;
+  // Map file loaded at start-up: tracking starts lost and the first frames
+  // relocalize in it; poses are in the map's world frame. It must have been
+  // built with the same vocabulary tree and camera settings. Empty = none
+  // (a new map is built from the first frame).
+  std::filesystem::path load_map;
+  // Index of the first frame of the sequence to track (>= 0).
+  int first_frame = 0;
+  // ORB-SLAM2's localization mode (requires --load-map): no keyframes or map
+  // points are added; with few map points matched, frames are tracked as
+  // visual odometry until relocalization finds the map again. Without it, a
+  // loaded map is mapped on (restore mapping).
+  bool localization_only = false;
+  // Restore mapping: a loaded map point predicted visible in at least
+  // `changed_point_views` frames of this run but found in fewer than
+  // `changed_point_ratio` of them is culled (the scene changed there) ...
+  // 0 views = never.
+  int changed_point_views = 20;
+  double changed_point_ratio = 0.25;
+  // ... and seen through (a keypoint at its pixel measured a depth clearly
+  // beyond it) in at least this many of them.
+  int changed_point_absent = 3;
+
   // Names the first violated constraint ("--mode = x; must be batch or realtime").
   bool Check(std::string* why) const;
   // The options recorded in run.json.
   nlohmann::json ToJson() const;
+};
+
+// Start-up and offline-map figures of a run (run.json "startup" and "map").
+struct TrackStartup {
+  double vocabulary_load_ms = 0;
+  double map_load_ms = 0;         // Read, check and rebuild; 0 without --load-map.
+  double map_read_ms = 0;         // Of which reading and checking the file.
+  double first_pose_ms = -1;      // From process start to the first pose; -1 = none.
+  int64_t first_pose_frame = -1;  // Sequence index of that frame.
 };
 
 // Counts of a finished run (also in run.json).
@@ -78,12 +116,14 @@ struct TrackSummary {
   size_t keyframes = 0;
   size_t map_points = 0;
   std::vector<double> lost_timestamps;
+  TrackStartup startup;
 };
 
 // Runs the stage. Throws UsageError (bad options), NoInputError (missing
 // inputs), DataError (malformed or inconsistent inputs: a sequence with fewer
 // than 2 frames, settings without intrinsics, a vocabulary that is not an ORB
-// vocabulary, a features file of other frames or settings), AlgorithmError
+// vocabulary, a features file of other frames or settings, a map file that is
+// corrupt or was built with another vocabulary or camera), AlgorithmError
 // (tracking never initialized, e.g. depth all zero), CantCreateError.
 TrackSummary RunTrack(const TrackOptions& options);
 

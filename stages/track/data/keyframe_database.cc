@@ -1,31 +1,63 @@
 #include "stages/track/data/keyframe_database.h"
 
 #include <algorithm>
+#include <cassert>
+#include <iterator>
 #include <map>
 
 namespace rrslam {
 
-KeyFrameDatabase::KeyFrameDatabase(const Vocabulary& vocabulary)
-    : vocabulary_(vocabulary), index_(vocabulary.num_words()) {}
+KeyFrameDatabase::KeyFrameDatabase(const Vocabulary& vocabulary) : vocabulary_(vocabulary) {}
+
+KeyFrameDatabase::Entry KeyFrameDatabase::MakeEntry(WordId word, KeyFrame* keyframe) {
+  assert(keyframe->id() < (uint64_t{1} << kIdBits) && word < (uint64_t{1} << (64 - kIdBits)));
+  return {(uint64_t{word} << kIdBits) | keyframe->id(), keyframe};
+}
 
 void KeyFrameDatabase::Add(KeyFrame* keyframe) {
+  std::vector<Entry> added;
+  added.reserve(keyframe->bow().size());
   for (const auto& [word, value] : keyframe->bow().entries) {
-    std::vector<KeyFrame*>& list = index_.at(word);
-    auto it = std::lower_bound(list.begin(), list.end(), keyframe, IdLess());
-    if (it == list.end() || *it != keyframe) list.insert(it, keyframe);
+    added.push_back(MakeEntry(word, keyframe));  // BoW entries are sorted by word.
   }
+  std::vector<Entry> merged;
+  merged.reserve(index_.size() + added.size());
+  std::merge(index_.begin(), index_.end(), added.begin(), added.end(), std::back_inserter(merged));
+  merged.erase(std::unique(merged.begin(), merged.end(),
+                           [](const Entry& a, const Entry& b) { return a.key == b.key; }),
+               merged.end());
+  index_ = std::move(merged);
+}
+
+void KeyFrameDatabase::AddAll(const std::vector<KeyFrame*>& keyframes) {
+  size_t n = index_.size();
+  for (const KeyFrame* kf : keyframes) n += kf->bow().size();
+  index_.reserve(n);
+  for (KeyFrame* kf : keyframes) {
+    for (const auto& [word, value] : kf->bow().entries) index_.push_back(MakeEntry(word, kf));
+  }
+  std::sort(index_.begin(), index_.end());
+  index_.erase(std::unique(index_.begin(), index_.end(),
+                           [](const Entry& a, const Entry& b) { return a.key == b.key; }),
+               index_.end());
 }
 
 void KeyFrameDatabase::Erase(const KeyFrame* keyframe) {
-  for (const auto& [word, value] : keyframe->bow().entries) {
-    std::vector<KeyFrame*>& list = index_.at(word);
-    auto it = std::lower_bound(list.begin(), list.end(), keyframe, IdLess());
-    if (it != list.end() && *it == keyframe) list.erase(it);
-  }
+  index_.erase(std::remove_if(index_.begin(), index_.end(),
+                              [keyframe](const Entry& e) { return e.keyframe == keyframe; }),
+               index_.end());
 }
 
-void KeyFrameDatabase::Clear() {
-  for (auto& list : index_) list.clear();
+void KeyFrameDatabase::Clear() { index_.clear(); }
+
+std::vector<KeyFrame*> KeyFrameDatabase::KeyFramesWithWord(WordId word) const {
+  std::vector<KeyFrame*> out;
+  const uint64_t first = uint64_t{word} << kIdBits;
+  for (auto it = std::lower_bound(index_.begin(), index_.end(), Entry{first, nullptr});
+       it != index_.end() && (it->key >> kIdBits) == word; ++it) {
+    out.push_back(it->keyframe);
+  }
+  return out;
 }
 
 std::vector<KeyFrame*> KeyFrameDatabase::DetectRelocalizationCandidates(
@@ -55,9 +87,12 @@ std::vector<KeyFrame*> KeyFrameDatabase::DetectCandidates(const BowVector& bow,
     double score = 0;
   };
   std::map<KeyFrameId, Candidate> candidates;
+  // The query's words are sorted, so each search starts where the last ended.
+  auto from = index_.begin();
   for (const auto& [word, value] : bow.entries) {
-    if (word >= index_.size()) continue;
-    for (KeyFrame* keyframe : index_[word]) {
+    from = std::lower_bound(from, index_.end(), Entry{uint64_t{word} << kIdBits, nullptr});
+    for (; from != index_.end() && (from->key >> kIdBits) == word; ++from) {
+      KeyFrame* keyframe = from->keyframe;
       if (keyframe->bad() || std::binary_search(excluded.begin(), excluded.end(), keyframe->id())) {
         continue;
       }

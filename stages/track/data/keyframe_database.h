@@ -8,6 +8,7 @@
 // Thread-safety: none of its own; use it under Map::mutex().
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "stages/track/data/keyframe.h"
@@ -20,14 +21,17 @@ class KeyFrameDatabase {
   // `vocabulary` must outlive the database.
   explicit KeyFrameDatabase(const Vocabulary& vocabulary);
 
-  // Indexes a keyframe by the words of its BoW vector (which must be computed).
+  // Indexes a keyframe by the words of its BoW vector (which must be
+  // computed). Linear in the index's size (a merge).
   void Add(KeyFrame* keyframe);
+  // Indexes many keyframes at once (a map being loaded): one sort.
+  void AddAll(const std::vector<KeyFrame*>& keyframes);
   // Removes a keyframe from every list it is in.
   void Erase(const KeyFrame* keyframe);
   void Clear();
 
   // Keyframes whose lists hold word `word`, by id (for tests and tools).
-  const std::vector<KeyFrame*>& KeyFramesWithWord(WordId word) const { return index_.at(word); }
+  std::vector<KeyFrame*> KeyFramesWithWord(WordId word) const;
 
   // Candidate keyframes to relocalize a frame with BoW vector `bow`:
   //  1. keyframes sharing at least one word; keep those sharing at least 80% of
@@ -52,7 +56,22 @@ class KeyFrameDatabase {
                                           double min_score) const;
 
   const Vocabulary& vocabulary_;
-  std::vector<std::vector<KeyFrame*>> index_;  // Word id -> keyframes, by id.
+  // The inverted index as one array of (word, keyframe) entries sorted by
+  // word, then keyframe id: a word's list is an equal range. ORB-SLAM2 keeps
+  // a list per vocabulary word; that table alone costs ~20 ms to allocate for
+  // a 540k-word vocabulary at every start-up, and filling per-word lists
+  // (or hash-map nodes) for a loaded map ~20 ms more, where one sort of this
+  // array takes a few.
+  // Keyframe ids take the low kIdBits bits of a key, word ids (< 2^27,
+  // vocabulary_format.h) the others.
+  static constexpr int kIdBits = 37;
+  struct Entry {
+    uint64_t key;  // word << kIdBits | keyframe id.
+    KeyFrame* keyframe;
+    bool operator<(const Entry& o) const { return key < o.key; }
+  };
+  static Entry MakeEntry(WordId word, KeyFrame* keyframe);
+  std::vector<Entry> index_;
 };
 
 }  // namespace rrslam

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <map>
+#include <stdexcept>
+#include <string>
 
 namespace rrslam {
 
@@ -16,6 +18,34 @@ MapPoint* Map::CreateMapPoint(const Eigen::Vector3d& position_world, KeyFrame* r
       std::make_unique<MapPoint>(map_points_.size(), position_world, reference_keyframe));
   map_point_in_map_.push_back(0);
   return map_points_.back().get();
+}
+
+KeyFrame* Map::CreateKeyFrameWithId(KeyFrameId id, const Frame& frame) {
+  if (id < keyframes_.size()) {
+    throw std::invalid_argument("keyframe id " + std::to_string(id) + " is taken");
+  }
+  ReserveIds(id, map_points_.size());
+  return CreateKeyFrame(frame);
+}
+
+MapPoint* Map::CreateMapPointWithId(MapPointId id, const Eigen::Vector3d& position_world,
+                                    KeyFrame* reference_keyframe) {
+  if (id < map_points_.size()) {
+    throw std::invalid_argument("map point id " + std::to_string(id) + " is taken");
+  }
+  ReserveIds(keyframes_.size(), id);
+  return CreateMapPoint(position_world, reference_keyframe);
+}
+
+void Map::ReserveIds(KeyFrameId next_keyframe_id, MapPointId next_map_point_id) {
+  if (next_keyframe_id > keyframes_.size()) {
+    keyframes_.resize(next_keyframe_id);
+    keyframe_in_map_.resize(next_keyframe_id, 0);
+  }
+  if (next_map_point_id > map_points_.size()) {
+    map_points_.resize(next_map_point_id);
+    map_point_in_map_.resize(next_map_point_id, 0);
+  }
 }
 
 void Map::AddKeyFrame(KeyFrame* keyframe) {
@@ -60,7 +90,7 @@ void Map::Clear() {
   }
   for (size_t i = 0; i < keyframes_.size(); ++i) {
     KeyFrame* kf = keyframes_[i].get();
-    if (kf->bad()) continue;  // Also those created but not yet added.
+    if (kf == nullptr || kf->bad()) continue;  // Also those created but not yet added.
     for (size_t k = 0; k < kf->size(); ++k) kf->SetMapPoint(k, nullptr);
     kf->MarkBad(Rigid3d::Identity());
     keyframe_in_map_[i] = 0;

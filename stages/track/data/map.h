@@ -44,13 +44,25 @@ class Map {
   void AddKeyFrame(KeyFrame* keyframe);
   void AddMapPoint(MapPoint* point);
 
+  // Loading a saved map (map_io.h), whose ids have gaps (culled objects):
+  // create a keyframe / map point with a given id, which must be at least
+  // num_created_keyframes() / num_created_map_points() (objects are created in
+  // id order); the ids skipped stay unused (keyframe_by_id gives nullptr).
+  // Throws std::invalid_argument for an id already taken.
+  KeyFrame* CreateKeyFrameWithId(KeyFrameId id, const Frame& frame);
+  MapPoint* CreateMapPointWithId(MapPointId id, const Eigen::Vector3d& position_world,
+                                 KeyFrame* reference_keyframe);
+  // The next keyframe / map point created gets at least these ids.
+  void ReserveIds(KeyFrameId next_keyframe_id, MapPointId next_map_point_id);
+
   // Keyframes / map points in the map (not bad), ordered by id.
   std::vector<KeyFrame*> KeyFrames() const;
   std::vector<MapPoint*> MapPoints() const;
   size_t num_keyframes() const { return num_keyframes_; }
   size_t num_map_points() const { return num_map_points_; }
   // Every keyframe ever created (including culled ones and those not yet
-  // added), indexed by id.
+  // added), indexed by id: the next id. keyframe_by_id is nullptr for an id
+  // skipped when a saved map was loaded.
   size_t num_created_keyframes() const { return keyframes_.size(); }
   KeyFrame* keyframe_by_id(KeyFrameId id) const { return keyframes_.at(id).get(); }
   size_t num_created_map_points() const { return map_points_.size(); }
@@ -99,8 +111,8 @@ class Map {
   std::mutex& mutex() const { return mutex_; }
 
  private:
-  std::vector<std::unique_ptr<KeyFrame>> keyframes_;   // Index = id.
-  std::vector<std::unique_ptr<MapPoint>> map_points_;  // Index = id.
+  std::vector<std::unique_ptr<KeyFrame>> keyframes_;   // Index = id; nullptr = id unused.
+  std::vector<std::unique_ptr<MapPoint>> map_points_;  // Index = id; nullptr = id unused.
   std::vector<uint8_t> keyframe_in_map_;
   std::vector<uint8_t> map_point_in_map_;
   size_t num_keyframes_ = 0;

@@ -106,6 +106,29 @@ class MapPoint {
     bad_ = true;
     replaced_by_ = replaced_by;
   }
+  // Loading a saved map (map_io.h): the counters and creation keyframe it was
+  // saved with.
+  void RestoreSaved(int visible, int found, KeyFrameId first_keyframe_id) {
+    visible_ = visible;
+    found_ = found;
+    first_keyframe_id_ = first_keyframe_id;
+  }
+
+  // Restore mapping (LocalMapperOptions::cull_changed_points): the counters
+  // at the start of this run, so a loaded point is judged by this run's
+  // views only (SessionVisible / SessionFound).
+  void StartSession() {
+    session_visible_base_ = visible_;
+    session_found_base_ = found_;
+  }
+  int SessionVisible() const { return visible_ - session_visible_base_; }
+  int SessionFound() const { return found_ - session_found_base_; }
+  // Times a tracked frame of this run saw through the point: predicted
+  // visible, not matched, and a keypoint at its pixel measured a clearly
+  // larger depth (the point is no longer there; an occluded point is not
+  // counted). Not saved.
+  int absent() const { return absent_; }
+  void IncreaseAbsent() { ++absent_; }
 
  private:
   MapPointId id_;
@@ -120,6 +143,9 @@ class MapPoint {
   KeyFrame* reference_keyframe_;
   int visible_ = 1;
   int found_ = 1;
+  int session_visible_base_ = 0;
+  int session_found_base_ = 0;
+  int absent_ = 0;
   bool bad_ = false;
   MapPoint* replaced_by_ = nullptr;
 };

@@ -279,6 +279,37 @@ bool LocalMapper::HasQueued() const {
   return !queue_.empty();
 }
 
+bool IsChangedPoint(const MapPoint& point, const LocalMapperOptions& options) {
+  const int views = point.SessionVisible();
+  return options.changed_point_min_views > 0 && views >= options.changed_point_min_views &&
+         point.SessionFound() < options.changed_point_min_found_ratio * views &&
+         point.absent() >= options.changed_point_min_absent;
+}
+
+void LocalMapper::WatchLoadedPoints(const std::vector<MapPoint*>& points) {
+  loaded_points_ = points;
+  for (MapPoint* point : loaded_points_) point->StartSession();
+}
+
+size_t LocalMapper::CullChangedPoints() {
+  if (options_.changed_point_min_views <= 0) return 0;
+  size_t culled = 0;
+  std::vector<MapPoint*> kept;
+  kept.reserve(loaded_points_.size());
+  for (MapPoint* point : loaded_points_) {
+    if (point->bad()) continue;
+    if (IsChangedPoint(*point, options_)) {
+      map_->CullMapPoint(point);
+      ++culled;
+    } else {
+      kept.push_back(point);
+    }
+  }
+  loaded_points_ = std::move(kept);
+  counters_.culled_changed_points += culled;
+  return culled;
+}
+
 size_t LocalMapper::QueueSize() const {
   std::lock_guard<std::mutex> lock(queue_mutex_);
   return queue_.size();
@@ -290,6 +321,7 @@ void LocalMapper::Process(KeyFrame* keyframe, bool realtime) {
     std::lock_guard<std::mutex> lock(map_->mutex());
     InsertKeyFrame(keyframe);
     CullRecentPoints(keyframe);
+    CullChangedPoints();
   }
   {
     std::lock_guard<std::mutex> lock(map_->mutex());
@@ -406,6 +438,7 @@ void LocalMapper::Reset() {
   }
   if (running) Stop();  // Finishes the keyframe in progress.
   recent_points_.clear();
+  loaded_points_.clear();
   if (running) Start();
 }
 

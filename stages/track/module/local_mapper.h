@@ -43,7 +43,22 @@ struct LocalMapperOptions {
   double culling_redundancy = 0.9;    // Fraction of close points that must be redundant.
   int bow_levels_up = 4;              // Feature-vector grouping (TrackerOptions::bow_levels_up).
   LocalBundleAdjustmentOptions bundle_adjustment;
+  // Restore mapping (a map loaded from a file, mapped on): a loaded point
+  // that this run predicted visible in at least `changed_point_min_views`
+  // tracked frames, found in fewer than `changed_point_min_found_ratio` of
+  // them, and seen through in at least `changed_point_min_absent` of them
+  // (MapPoint::absent) is culled at the next keyframe: the scene changed
+  // there. (Visibility alone cannot tell a removed point from an occluded
+  // one: both are predicted visible and not found.) 0 views: loaded points
+  // are culled only as any other point.
+  int changed_point_min_views = 0;
+  double changed_point_min_found_ratio = 0.25;
+  int changed_point_min_absent = 3;
 };
+
+// Restore mapping: true when a loaded point is to be culled as changed (see
+// LocalMapperOptions::changed_point_min_views).
+bool IsChangedPoint(const MapPoint& point, const LocalMapperOptions& options);
 
 // What happens to a recently created map point at a new keyframe.
 enum class RecentPointDecision {
@@ -63,7 +78,8 @@ bool IsRedundantKeyFrame(const KeyFrame& keyframe, const SensorModel& sensor, in
 struct LocalMappingCounters {
   size_t keyframes = 0;  // Keyframes processed.
   size_t culled_keyframes = 0;
-  size_t culled_points = 0;  // Recent points culled.
+  size_t culled_points = 0;          // Recent points culled.
+  size_t culled_changed_points = 0;  // Loaded points culled as changed (restore mapping).
   size_t triangulated_points = 0;
   size_t fused_points = 0;
   size_t bundle_adjustments = 0;
@@ -106,6 +122,11 @@ class LocalMapper {
   // realtime mode): hands it on to loop closing. Set before Start().
   void SetKeyFrameSink(std::function<void(KeyFrame*)> sink) { sink_ = std::move(sink); }
 
+  // Restore mapping: the points of a loaded map, watched for scene changes
+  // (LocalMapperOptions::changed_point_min_views) from now on. Call before
+  // Start(), under the map lock or with no other thread running.
+  void WatchLoadedPoints(const std::vector<MapPoint*>& points);
+
   // Realtime mode: Pause() returns once the mapper is between keyframes and
   // keeps it there until the matching Resume() (loop correction, global BA;
   // ORB-SLAM2's RequestStop / Release; pauses nest); keyframes queued
@@ -119,6 +140,7 @@ class LocalMapper {
   // The steps, public for tests; the caller holds the map lock.
   void InsertKeyFrame(KeyFrame* keyframe);
   size_t CullRecentPoints(const KeyFrame* keyframe);
+  size_t CullChangedPoints();
   size_t TriangulateNewPoints(KeyFrame* keyframe, bool check_queue);
   size_t FuseWithNeighbours(KeyFrame* keyframe);
   size_t CullRedundantKeyFrames(const KeyFrame* keyframe);
@@ -135,6 +157,7 @@ class LocalMapper {
   LocalMapperOptions options_;
   LocalBundleAdjuster adjuster_;
   std::vector<MapPoint*> recent_points_;
+  std::vector<MapPoint*> loaded_points_;  // Watched for changes (restore mapping).
   LocalMappingCounters counters_;
 
   mutable std::mutex queue_mutex_;

@@ -388,8 +388,8 @@ void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
     record.matches = loop_.matches;
     record.keyframe = keyframe->id();
     record.matched = loop_.matched->id();
-    record.frame = keyframe->frame_id();
-    record.matched_frame = loop_.matched->frame_id();
+    record.timestamp = keyframe->timestamp();
+    record.matched_timestamp = loop_.matched->timestamp();
     const Rigid3d& T_after = keyframe->T_cam_world();
     record.correction_m = (T_after.Inverse().translation - T_before.Inverse().translation).norm();
     record.correction_deg = RotationAngle(T_after.rotation, T_before.rotation) * 180.0 / M_PI;
@@ -400,9 +400,9 @@ void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
   }
   mapper_->Resume();
   spdlog::info(
-      "loop closing: keyframe {} (frame {}) closes a loop with keyframe {} (frame {}): "
+      "loop closing: keyframe {} ({:.3f} s) closes a loop with keyframe {} ({:.3f} s): "
       "{} matches, correction {:.3f} m, {:.2f} deg",
-      record.keyframe, record.frame, record.matched, record.matched_frame, record.matches,
+      record.keyframe, record.timestamp, record.matched, record.matched_timestamp, record.matches,
       record.correction_m, record.correction_deg);
   loop_ = {};
 

@@ -85,8 +85,8 @@ struct LoopClosingOptions {
 struct LoopClosure {
   KeyFrameId keyframe = 0;  // The keyframe that closed it.
   KeyFrameId matched = 0;   // The earlier keyframe it matched.
-  uint64_t frame = 0;       // Frame ids of both.
-  uint64_t matched_frame = 0;
+  double timestamp = 0;     // Timestamps (s) of both keyframes.
+  double matched_timestamp = 0;
   int bow_matches = 0;
   int ransac_inliers = 0;
   int optimized_inliers = 0;

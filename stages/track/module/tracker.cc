@@ -36,7 +36,9 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
     made_keyframe = ok;
   } else {
     const bool was_lost = state_ == State::kLost;
-    if (!was_lost) {
+    if (options_.localization_only) {
+      ok = TrackLocalizationOnly();
+    } else if (!was_lost) {
       ReplaceInLastFrame();
       if (velocity_ && !RecentlyRelocalized(2)) {
         ok = TrackWithMotionModel();
@@ -46,7 +48,9 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
       ok = Relocalize();
     }
     current_.reference_keyframe = reference_keyframe_;
-    if (ok) ok = TrackLocalMap();
+    if (ok && !vo_) ok = TrackLocalMap();
+    if (ok && options_.restore_mapping) CountAbsentPoints();
+    if (ok && vo_) ++visual_odometry_frames_;
     if (ok && was_lost) ++relocalizations_;
     state_ = ok ? State::kOk : State::kLost;
     if (ok) {
@@ -55,7 +59,17 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
       } else {
         velocity_.reset();
       }
-      if (NeedNewKeyFrame()) {
+      if (options_.localization_only) {
+        // Matches of temporary points do not outlive them (ORB-SLAM2's
+        // "clean VO matches").
+        for (size_t i = 0; i < current_.size(); ++i) {
+          MapPoint* point = current_.map_points[i];
+          if (point != nullptr && point->num_observations() < 1) {
+            current_.map_points[i] = nullptr;
+            current_.outlier[i] = 0;
+          }
+        }
+      } else if (NeedNewKeyFrame()) {
         CreateNewKeyFrame();
         made_keyframe = true;
       }
@@ -85,6 +99,12 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
     record.T_cam_reference = current_.T_cam_world() * record.reference->T_world_cam();
   }
   records_.push_back(record);
+  if (!temporary_points_.empty()) {
+    for (MapPoint*& point : current_.map_points) {
+      if (point != nullptr && point->num_observations() < 1) point = nullptr;
+    }
+    temporary_points_.clear();
+  }
   last_frame_ = std::move(current_);
   last_frame_tracked_ = ok;
   if (new_keyframe != nullptr) *new_keyframe = made_keyframe;
@@ -104,6 +124,117 @@ void Tracker::Reset() {
   }
   reset_requested_ = false;
   ++resets_;
+}
+
+void Tracker::StartOnLoadedMap() {
+  state_ = State::kLost;
+  velocity_.reset();
+  reference_keyframe_ = nullptr;
+  last_frame_tracked_ = false;
+  options_.reset_max_keyframes = -1;
+}
+
+void Tracker::CountAbsentPoints() {
+  // A keypoint at the point's pixel whose depth exceeds the point's by this
+  // much (metres, and relative: Kinect-like noise grows with depth) sees
+  // through it.
+  constexpr double kMinGapMetres = 0.1, kMinGapRelative = 0.05;
+  constexpr double kRadiusPixels = 3.0;
+  const uint64_t stamp = current_.id() + 1;
+  for (const MapPoint* point : current_.map_points) {
+    if (point != nullptr) MarkSeen(point, stamp);
+  }
+  const FrameFeatures& f = current_.features();
+  const Eigen::Matrix3d& R = current_.R_cam_world();
+  const Eigen::Vector3d& t = current_.T_cam_world().translation;
+  const Eigen::Vector3d& centre = current_.camera_centre();
+  std::vector<uint32_t> nearby;
+  for (MapPoint* point : local_points_) {
+    if (point->bad() || seen_mark_[point->id()] == stamp) continue;
+    ProjectedPoint pp;
+    if (!ProjectIntoView(sensor_, R, t, centre, point, 0.5, &pp)) continue;
+    const double z = (R * point->position_world() + t).z();
+    const double gap = std::max(kMinGapMetres, kMinGapRelative * z);
+    nearby.clear();
+    f.FeaturesInArea(sensor_, pp.u, pp.v, kRadiusPixels, 0, -1, &nearby);
+    for (uint32_t i : nearby) {
+      if (f.HasDepth(i) && f.Depth(i) > z + gap) {
+        point->IncreaseAbsent();
+        break;
+      }
+    }
+  }
+}
+
+bool Tracker::TrackLocalizationOnly() {
+  if (state_ == State::kLost) {
+    const bool ok = Relocalize();
+    if (ok) vo_ = false;
+    return ok;
+  }
+  if (!vo_) return velocity_ ? TrackWithMotionModel() : TrackReferenceKeyFrame();
+
+  // The last frame was tracked mainly on temporary points: track with the
+  // motion model and try relocalization too; relocalization wins.
+  bool ok_motion = false;
+  std::vector<MapPoint*> motion_points;
+  std::vector<uint8_t> motion_outliers;
+  Rigid3d motion_pose;
+  if (velocity_) {
+    ok_motion = TrackWithMotionModel();
+    motion_points = current_.map_points;
+    motion_outliers = current_.outlier;
+    motion_pose = current_.T_cam_world();
+  }
+  const bool ok_relocalized = Relocalize();
+  if (ok_motion && !ok_relocalized) {
+    current_.SetPose(motion_pose);
+    current_.map_points = std::move(motion_points);
+    current_.outlier = std::move(motion_outliers);
+    if (vo_) {
+      for (size_t i = 0; i < current_.size(); ++i) {
+        if (current_.map_points[i] != nullptr && !current_.outlier[i]) {
+          current_.map_points[i]->IncreaseFound();
+        }
+      }
+    }
+  } else if (ok_relocalized) {
+    vo_ = false;
+  }
+  return ok_relocalized || ok_motion;
+}
+
+void Tracker::AddTemporaryPoints() {
+  constexpr MapPointId kTemporaryPointIdBase = MapPointId{1} << 62;
+  const FrameFeatures& f = last_frame_.features();
+  std::vector<std::pair<float, uint32_t>> by_depth;
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (f.HasDepth(i)) by_depth.emplace_back(f.Depth(i), static_cast<uint32_t>(i));
+  }
+  std::sort(by_depth.begin(), by_depth.end());
+  const ScalePyramid& pyramid = sensor_.pyramid;
+  int points = 0;
+  for (const auto& [depth, i] : by_depth) {
+    MapPoint* existing = last_frame_.map_points[i];
+    if (existing == nullptr || existing->num_observations() < 1) {
+      // As ORB-SLAM2's MapPoint made from a frame: the keypoint's descriptor,
+      // the viewing direction and the scale range from this one view.
+      const Eigen::Vector3d position = last_frame_.UnprojectWorld(sensor_, i);
+      auto point = std::make_unique<MapPoint>(kTemporaryPointIdBase + temporary_points_.size(),
+                                              position, nullptr);
+      const Eigen::Vector3d ray = position - last_frame_.camera_centre();
+      const double distance = ray.norm();
+      const double max_distance = distance * pyramid.scale[f.Octave(i)];
+      point->SetNormalAndDistances(ray / distance, max_distance / pyramid.scale.back(),
+                                   max_distance);
+      point->SetDescriptor(f.descriptors[i]);
+      last_frame_.map_points[i] = point.get();
+      last_frame_.outlier[i] = 0;
+      temporary_points_.push_back(std::move(point));
+    }
+    ++points;
+    if (depth > sensor_.th_depth && points > 100) break;
+  }
 }
 
 bool Tracker::Initialize() {
@@ -156,7 +287,7 @@ int Tracker::DiscardOutliers() {
       current_.map_points[i] = nullptr;
       current_.outlier[i] = 0;
       // Not searched again in this frame's local map.
-      if (point->id() < seen_mark_.size()) seen_mark_[point->id()] = stamp;
+      MarkSeen(point, stamp);
     } else if (point->num_observations() > 0) {
       ++in_map;
     }
@@ -170,6 +301,8 @@ bool Tracker::TrackWithMotionModel() {
   const TrackedFrame& last_record = records_.back();
   last_frame_.SetPose(ResolvePose(last_record.reference, last_record.T_cam_reference));
 
+  if (options_.localization_only) AddTemporaryPoints();
+
   current_.SetPose(*velocity_ * last_frame_.T_cam_world());
   std::fill(current_.map_points.begin(), current_.map_points.end(), nullptr);
   const Matcher matcher(sensor_, 0.9, true);
@@ -180,7 +313,14 @@ bool Tracker::TrackWithMotionModel() {
   }
   if (matches < options_.min_motion_matches) return false;
   OptimizeFramePose(sensor_, &current_, {}, &pose_solves_);
-  return DiscardOutliers() >= options_.min_pose_inliers;
+  const int in_map = DiscardOutliers();
+  if (options_.localization_only) {
+    int inliers = 0;
+    for (const MapPoint* point : current_.map_points) inliers += point != nullptr;
+    vo_ = in_map < options_.vo_min_map_matches;
+    return inliers > options_.vo_min_matches;
+  }
+  return in_map >= options_.min_pose_inliers;
 }
 
 bool Tracker::TrackReferenceKeyFrame() {
@@ -226,7 +366,8 @@ bool Tracker::TrackLocalMap() {
     MapPoint* point = current_.map_points[i];
     if (point == nullptr || current_.outlier[i]) continue;
     point->IncreaseFound();
-    if (point->num_observations() > 0) ++matches_inliers_;
+    // Localization only counts every inlier (ORB-SLAM2).
+    if (point->num_observations() > 0 || options_.localization_only) ++matches_inliers_;
   }
   if (RecentlyRelocalized(options_.max_keyframe_gap) &&
       matches_inliers_ < options_.min_local_map_inliers_relocalized) {
@@ -315,7 +456,7 @@ int Tracker::SearchLocalPoints() {
       continue;
     }
     point->IncreaseVisible();
-    seen_mark_[point->id()] = stamp;
+    MarkSeen(point, stamp);
   }
   std::vector<ProjectedPoint> candidates;
   candidates.reserve(local_points_.size());
@@ -370,7 +511,9 @@ bool Tracker::NeedNewKeyFrame() const {
   const bool c1c = matches_inliers_ < reference_matches * 0.25 || need_close;
   const bool c2 =
       (matches_inliers_ < reference_matches * ratio || need_close) && matches_inliers_ > 15;
-  if (!((c1a || c1b || c1c) && c2)) return false;
+  const bool restore = options_.restore_mapping && c1a &&
+                       untracked_close > options_.close_untracked && matches_inliers_ > 15;
+  if (!((c1a || c1b || c1c) && (c2 || restore))) return false;
   if (mapper_idle) return true;
   mapper_->InterruptBundleAdjustment();
   return mapper_->QueueSize() < 3;

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -78,6 +79,27 @@ struct TrackerOptions {
   // and tracking initializes again (ORB-SLAM2's reset; the caller does it when
   // reset_requested() is true). Negative: never.
   int reset_max_keyframes = 5;
+  // ORB-SLAM2's localization mode (mbOnlyTracking): no keyframes are made, so
+  // the map is not changed (but for the points' visible/found counters).
+  // While fewer than `vo_min_map_matches` map points are matched by the
+  // motion model, the frame is tracked as visual odometry: against temporary
+  // points made from the last frame's close depth (never in the map), with
+  // relocalization tried on every frame until the map is seen again.
+  bool localization_only = false;
+  // Restore mapping (a loaded map mapped on; not ORB-SLAM2, which cannot load
+  // maps): local points the frame sees through are counted
+  // (MapPoint::absent, for LocalMapperOptions::changed_point_min_absent),
+  // and a keyframe is also made when max_keyframe_gap frames passed since
+  // the last one and more than close_untracked close keypoints are not
+  // tracked. ORB-SLAM2's rule waits for the tracked points to drop, which a
+  // loaded map covering the view never lets happen, so a changed part of the
+  // scene would get no keyframe, no points, and its old points would never
+  // be judged (LocalMapperOptions::changed_point_min_views). Redundant
+  // keyframes are culled as usual.
+  bool restore_mapping = false;
+  int vo_min_map_matches = 10;
+  // Points matched by the motion model in visual-odometry tracking (ORB-SLAM2: > 20).
+  int vo_min_matches = 20;
 };
 
 // Pose of a frame as recorded for the trajectory: relative to its reference
@@ -118,6 +140,14 @@ class Tracker {
   // Forgets the map: the next frame initializes a new one. Frames tracked
   // before are marked lost (their poses referred to the discarded map).
   void Reset();
+  // Starts on a map loaded from a file (the paper's start-up): the tracker is
+  // lost, so the next frames relocalize in the map; it never resets the map.
+  // Call before the first Track().
+  void StartOnLoadedMap();
+  // Localization only: the last frame was tracked as visual odometry.
+  bool visual_odometry() const { return vo_; }
+  // Frames tracked as visual odometry (localization only).
+  size_t visual_odometry_frames() const { return visual_odometry_frames_; }
   size_t resets() const { return resets_; }
   // The pose optimizations' solves so far.
   const SolveCounts& pose_solves() const { return pose_solves_; }
@@ -125,6 +155,18 @@ class Tracker {
  private:
   bool Initialize();
   void ReplaceInLastFrame();
+  // Localization only (ORB-SLAM2's UpdateLastFrame for RGB-D): temporary
+  // points for the last frame's close keypoints without a map point.
+  void AddTemporaryPoints();
+  // Restore mapping: counts the local points the frame sees through
+  // (MapPoint::absent).
+  void CountAbsentPoints();
+  // The tracking step of localization mode; returns whether it gave a pose.
+  bool TrackLocalizationOnly();
+  // Marks a point as handled in the current frame's local-map search.
+  void MarkSeen(const MapPoint* point, uint64_t stamp) {
+    if (point->id() < seen_mark_.size()) seen_mark_[point->id()] = stamp;
+  }
   bool TrackWithMotionModel();
   // BoW matching against the reference keyframe from the last frame's pose.
   bool TrackReferenceKeyFrame();
@@ -172,6 +214,12 @@ class Tracker {
   std::vector<uint64_t> seen_mark_;   // Matched (or rejected) in the current frame.
   bool last_frame_tracked_ = false;
   std::vector<TrackedFrame> records_;
+  // Localization only.
+  bool vo_ = false;
+  size_t visual_odometry_frames_ = 0;
+  // Points of the current visual-odometry step, owned here and never in the
+  // map; ids from kTemporaryPointIdBase up (beyond any map point id).
+  std::vector<std::unique_ptr<MapPoint>> temporary_points_;
 };
 
 }  // namespace rrslam

@@ -1,0 +1,270 @@
+// End to end, offline maps: rrslam-synth renders a short room loop and a
+// vocabulary is trained on it; rrslam-track maps it and saves the map
+// (--save-map); a second run loads it (--load-map) and localizes in it
+// (--localization-only) from a later frame, in the map's frame; bad map
+// inputs are refused with one line and their exit code.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "common/atomic_file.h"
+#include "common/geometry.h"
+#include "common/testing.h"
+#include "common/text.h"
+#include "common/trajectory.h"
+
+namespace rrslam {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
+
+constexpr int kFrames = 120;
+
+nlohmann::json ReadJson(const fs::path& path) {
+  return nlohmann::json::parse(ReadFileToString(path));
+}
+
+class MapPipelineTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir();
+    auto run = [](const std::string& stage, const std::string& args) {
+      const auto r = testing::RunTool(stage, "--quiet " + args);
+      ASSERT_EQ(r.exit_code, 0) << "rrslam-" << stage << " " << args << "\n" << r.output;
+    };
+    run("synth", "--out " + Quote(seq()) + " --width 320 --height 240 --trajectory loop --frames " +
+                     std::to_string(kFrames) + " --seed 3");
+    run("extract", "--sequence " + Quote(seq()) + " --settings " + Quote(settings()) + " --out " +
+                       Quote(path("room.h5")));
+    run("cluster", "--features " + Quote(path("room.h5")) + " --out " + Quote(path("tree.h5")) +
+                       " --k 8 -L 3");
+    run("vocab", "build --tree " + Quote(path("tree.h5")) + " --features " +
+                     Quote(path("room.h5")) + " --out " + Quote(vocab()));
+    // The map of the whole loop.
+    const auto r = Track(path("mapping"), "--save-map " + Quote(map()));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static fs::path path(const std::string& name) { return dir_->path() / name; }
+  static fs::path seq() { return path("room"); }
+  static fs::path settings() { return seq() / "settings.yaml"; }
+  static fs::path vocab() { return path("room.rrv"); }
+  static fs::path map() { return path("room.rrm"); }
+
+  static testing::CommandResult Track(const fs::path& out, const std::string& extra) {
+    return testing::RunTool("track", "--quiet --sequence " + Quote(seq()) + " --settings " +
+                                         Quote(settings()) + " --vocab " + Quote(vocab()) +
+                                         " --out " + Quote(out) + " " + extra);
+  }
+
+  static testing::TempDir* dir_;
+};
+testing::TempDir* MapPipelineTest::dir_ = nullptr;
+
+TEST_F(MapPipelineTest, SavedMapVerifiesAndMatchesTheRun) {
+  const nlohmann::json run = ReadJson(path("mapping") / "run.json");
+  const nlohmann::json& m = run.at("map");
+  EXPECT_EQ(m.at("mode").get<std::string>(), "new map");
+  EXPECT_EQ(m.at("saved").get<std::string>(), map().string());
+  EXPECT_EQ(m.at("file_bytes").get<uint64_t>(), fs::file_size(map()));
+  EXPECT_EQ(m.at("saved_identity").get<std::string>().size(), 16u);
+
+  const auto verify = testing::RunTool("mapstore", "verify " + Quote(map()));
+  EXPECT_EQ(verify.exit_code, 0) << verify.output;
+  const auto info = testing::RunTool("mapstore", "info --json " + Quote(map()));
+  ASSERT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find(std::to_string(run.at("counts").at("keyframes").get<int>())),
+            std::string::npos);
+}
+
+// Start-up on the saved map from frame 30, localization only: the first
+// frame relocalizes, every frame is tracked, nothing is added to the map,
+// and the poses are those of the mapping run (the map's frame, no
+// alignment) within a centimetre.
+TEST_F(MapPipelineTest, LocalizationOnlyTracksEveryFrameInTheMapsFrame) {
+  const fs::path out = path("localization");
+  const auto r = Track(out, "--load-map " + Quote(map()) + " --localization-only --first-frame 30");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json run = ReadJson(out / "run.json");
+  EXPECT_EQ(run.at("counts").at("frames").get<int>(), kFrames - 30);
+  EXPECT_EQ(run.at("counts").at("tracked").get<int>(), kFrames - 30);
+  EXPECT_EQ(run.at("counts").at("resets").get<int>(), 0);
+  const nlohmann::json& m = run.at("map");
+  EXPECT_EQ(m.at("mode").get<std::string>(), "localization only");
+  EXPECT_EQ(m.at("keyframes_added").get<int>(), 0);
+  EXPECT_EQ(m.at("map_points_added").get<int>(), 0);
+  EXPECT_EQ(m.at("keyframes_culled").get<int>(), 0);
+  EXPECT_EQ(m.at("map_points_culled").get<int>(), 0);
+  const nlohmann::json& startup = run.at("startup");
+  EXPECT_EQ(startup.at("first_pose_frame").get<int>(), 30);
+  EXPECT_GT(startup.at("map_load_ms").get<double>(), 0.0);
+  EXPECT_GT(startup.at("first_pose_ms").get<double>(), startup.at("map_load_ms").get<double>());
+
+  const Trajectory mapped = ReadTumTrajectory(path("mapping") / "CameraTrajectory.txt");
+  const Trajectory localized = ReadTumTrajectory(out / "CameraTrajectory.txt");
+  ASSERT_EQ(localized.size(), static_cast<size_t>(kFrames - 30));
+  double worst = 0;
+  for (size_t k = 0; k < localized.size(); ++k) {
+    const StampedPose& a = mapped[30 + k];
+    const StampedPose& b = localized[k];
+    ASSERT_NEAR(a.timestamp, b.timestamp, 1e-6);
+    worst = std::max(worst, (a.T_world_cam.translation - b.T_world_cam.translation).norm());
+  }
+  EXPECT_LT(worst, 0.01);
+}
+
+// Restore mapping on the same scene: the loaded map is mapped on, the saved
+// map keeps the loaded keyframes, and hardly a point is judged changed.
+TEST_F(MapPipelineTest, RestoreMappingExtendsTheLoadedMap) {
+  const fs::path out = path("restore"), updated = path("updated.rrm");
+  const auto r = Track(
+      out, "--load-map " + Quote(map()) + " --save-map " + Quote(updated) + " --first-frame 60");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json run = ReadJson(out / "run.json");
+  EXPECT_EQ(run.at("counts").at("tracked").get<int>(), kFrames - 60);
+  const nlohmann::json& m = run.at("map");
+  EXPECT_EQ(m.at("mode").get<std::string>(), "restore mapping");
+  EXPECT_EQ(m.at("keyframes_loaded").get<int>(),
+            ReadJson(path("mapping") / "run.json").at("counts").at("keyframes").get<int>());
+  // Nothing changed: few loaded points are taken for changed ones.
+  EXPECT_LE(m.at("changed_points_culled").get<double>(),
+            0.02 * m.at("map_points_loaded").get<double>());
+  EXPECT_EQ(testing::RunTool("mapstore", "verify " + Quote(updated)).exit_code, 0);
+}
+
+// Points of a diff report (map_points.added / removed) inside `box`, a
+// world-frame box of the synthetic room grown by `margin`, with the map's
+// frame given by T_map_world.
+int PointsIn(const nlohmann::json& points, const nlohmann::json& box, const Rigid3d& T_map_world,
+             double margin) {
+  Eigen::Vector3d lo, hi;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = box.at("bounds_min")[a].get<double>() - margin;
+    hi[a] = box.at("bounds_max")[a].get<double>() + margin;
+  }
+  int n = 0;
+  const Rigid3d T_world_map = T_map_world.Inverse();
+  for (const nlohmann::json& p : points) {
+    const Eigen::Vector3d map(p.at("position")[0].get<double>(), p.at("position")[1].get<double>(),
+                              p.at("position")[2].get<double>());
+    const Eigen::Vector3d world = T_world_map * map;
+    n += (world.array() >= lo.array()).all() && (world.array() <= hi.array()).all();
+  }
+  return n;
+}
+
+// Restore mapping on a changed room (rrslam-synth --change moved-box: one
+// box moved, one added): the map of the original room is loaded, tracked
+// and mapped on; the saved map gains points on the added box and on the
+// moved box's new place, and loses the moved box's points at its old place
+// (rrslam-mapstore diff). Every frame is tracked, with no jump where the
+// changed part comes into view.
+TEST_F(MapPipelineTest, RestoreMappingReplacesAMovedBox) {
+  const fs::path changed = path("changed");
+  const auto synth =
+      testing::RunTool("synth", "--quiet --out " + Quote(changed) +
+                                    " --width 320 --height 240 --trajectory loop --frames " +
+                                    std::to_string(kFrames) + " --seed 3 --change moved-box");
+  ASSERT_EQ(synth.exit_code, 0) << synth.output;
+  const fs::path out = path("changed-track"), updated = path("changed.rrm");
+  const auto r = testing::RunTool("track", "--quiet --sequence " + Quote(changed) + " --settings " +
+                                               Quote(settings()) + " --vocab " + Quote(vocab()) +
+                                               " --out " + Quote(out) + " --load-map " +
+                                               Quote(map()) + " --save-map " + Quote(updated));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json run = ReadJson(out / "run.json");
+  EXPECT_EQ(run.at("counts").at("tracked").get<int>(), kFrames);
+  EXPECT_GT(run.at("map").at("changed_points_culled").get<int>(), 0);
+
+  // No jump: frame-to-frame motion as the ground truth's within 1 cm.
+  const Trajectory gt = ReadTumTrajectory(changed / "groundtruth.txt");
+  const Trajectory est = ReadTumTrajectory(out / "CameraTrajectory.txt");
+  ASSERT_EQ(est.size(), gt.size());
+  for (size_t k = 1; k < est.size(); ++k) {
+    const double step_est =
+        (est[k].T_world_cam.translation - est[k - 1].T_world_cam.translation).norm();
+    const double step_gt =
+        (gt[k].T_world_cam.translation - gt[k - 1].T_world_cam.translation).norm();
+    EXPECT_NEAR(step_est, step_gt, 0.01) << "frame " << k;
+  }
+
+  const fs::path report = path("diff.json");
+  const auto diff = testing::RunTool("mapstore", "diff " + Quote(map()) + " " + Quote(updated) +
+                                                     " --radius 0.05 --json " + Quote(report));
+  ASSERT_EQ(diff.exit_code, 0) << diff.output;
+  const nlohmann::json d = ReadJson(report);
+  const nlohmann::json change = ReadJson(changed / "synth.json").at("scene_change");
+  // The map's world is the first camera: T_map_world = T_cam0_world.
+  const Rigid3d T_map_world = gt.front().T_world_cam.Inverse();
+  const nlohmann::json& added = d.at("map_points").at("added");
+  const nlohmann::json& removed = d.at("map_points").at("removed");
+  const int on_new_box = PointsIn(added, change.at("added")[0], T_map_world, 0.05);
+  const int at_new_place = PointsIn(added, change.at("moved")[0].at("to"), T_map_world, 0.05);
+  const int old_place_removed =
+      PointsIn(removed, change.at("moved")[0].at("from"), T_map_world, 0.05);
+  std::cerr << "restore mapping: " << added.size() << " points added (" << on_new_box
+            << " on the new box, " << at_new_place << " at the moved box's new place), "
+            << removed.size() << " removed (" << old_place_removed << " at its old place)\n";
+  // The loop sees the moved box's places well, the added crate at its
+  // edge: points on the changed places together.
+  EXPECT_GE(on_new_box + at_new_place, 20);
+  EXPECT_GE(old_place_removed, 20);
+  // Most points removed were at the old place, not elsewhere.
+  EXPECT_GE(old_place_removed, 0.6 * static_cast<double>(removed.size()));
+}
+
+// Bad map inputs: one line naming the file and the problem, the documented
+// exit code, and no output folder.
+TEST_F(MapPipelineTest, BadMapsAreRefused) {
+  const std::string bytes = ReadFileToString(map());
+  testing::WriteTextFile(path("truncated.rrm"), bytes.substr(0, bytes.size() / 2));
+  auto r = Track(path("bad1"), "--load-map " + Quote(path("truncated.rrm")));
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("truncated.rrm"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(path("bad1")));
+
+  r = Track(path("bad2"), "--load-map " + Quote(path("missing.rrm")));
+  EXPECT_EQ(r.exit_code, 66) << r.output;
+  r = Track(path("bad3"), "--load-map " + Quote(dir_->path()));
+  EXPECT_EQ(r.exit_code, 66) << r.output;
+  r = Track(path("bad4"), "--localization-only");
+  EXPECT_EQ(r.exit_code, 64) << r.output;
+  EXPECT_NE(r.output.find("--load-map"), std::string::npos) << r.output;
+
+  // Another camera: the map names the setting that differs.
+  std::string yaml = ReadFileToString(settings());
+  const size_t fx = yaml.find("Camera.fx:");
+  ASSERT_NE(fx, std::string::npos);
+  yaml.replace(fx, yaml.find('\n', fx) - fx, "Camera.fx: 300.0");
+  testing::WriteTextFile(path("other.yaml"), yaml);
+  r = testing::RunTool("track", "--quiet --sequence " + Quote(seq()) + " --settings " +
+                                    Quote(path("other.yaml")) + " --vocab " + Quote(vocab()) +
+                                    " --out " + Quote(path("bad5")) + " --load-map " +
+                                    Quote(map()));
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("Camera.fx"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(path("bad5")));
+
+  // A --save-map that cannot be written fails before tracking, and an
+  // existing map is never touched by a failed run.
+  r = Track(path("bad6"), "--save-map " + Quote(path("no-such-folder") / "m.rrm"));
+  EXPECT_EQ(r.exit_code, 73) << r.output;
+  const std::string before = ReadFileToString(map());
+  r = Track(path("bad7"),
+            "--save-map " + Quote(map()) + " --load-map " + Quote(path("truncated.rrm")));
+  EXPECT_EQ(r.exit_code, 65);
+  EXPECT_EQ(ReadFileToString(map()), before);
+}
+
+}  // namespace
+}  // namespace rrslam
