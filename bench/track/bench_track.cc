@@ -36,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/common/bench_report.h"
 #include "common/atomic_file.h"
 #include "common/text.h"
 #include "common/trajectory.h"
@@ -45,71 +46,11 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
+using rrslam::bench::Figure;
+using rrslam::bench::Report;
+using rrslam::bench::Run;
 
 std::string Quote(const fs::path& p) { return rrslam::ShellQuote(p.string()); }
-
-// Runs a command line; returns its exit status and echoes it to stderr.
-int Run(const std::string& command) {
-  std::cerr << "bench-track: " << command << std::endl;
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-struct Figure {
-  std::string name;
-  double value;
-  std::string unit;
-  std::string goal;  // Human-readable, e.g. "<= 4.3 cm".
-  bool pass;
-};
-
-class Report {
- public:
-  void Add(const std::string& section, const Figure& f) { figures_.emplace_back(section, f); }
-  void Note(const std::string& section, const std::string& text) {
-    notes_.emplace_back(section, text);
-  }
-  bool AllPass() const {
-    for (const auto& [s, f] : figures_) {
-      if (!f.pass) return false;
-    }
-    return true;
-  }
-  std::string Text() const {
-    std::ostringstream out;
-    std::string section;
-    for (const auto& [s, f] : figures_) {
-      if (s != section) {
-        out << "\n[" << s << "]\n";
-        section = s;
-        for (const auto& [ns, text] : notes_) {
-          if (ns == s) out << "  # " << text << "\n";
-        }
-      }
-      std::ostringstream value;
-      value << std::setprecision(6) << f.value << " " << f.unit;
-      out << "  " << std::left << std::setw(44) << f.name << std::setw(18) << value.str()
-          << std::setw(16) << ("goal " + f.goal) << (f.pass ? "PASS" : "FAIL") << "\n";
-    }
-    return out.str();
-  }
-  ordered_json Json() const {
-    ordered_json j = ordered_json::array();
-    for (const auto& [s, f] : figures_) {
-      j.push_back({{"section", s},
-                   {"figure", f.name},
-                   {"value", f.value},
-                   {"unit", f.unit},
-                   {"goal", f.goal},
-                   {"pass", f.pass}});
-    }
-    return j;
-  }
-
- private:
-  std::vector<std::pair<std::string, Figure>> figures_;
-  std::vector<std::pair<std::string, std::string>> notes_;
-};
 
 struct RunResult {
   bool ok = false;

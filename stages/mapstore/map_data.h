@@ -1,7 +1,7 @@
 // The on-disk map schema (rrslam.map): plain structs of a saved SLAM map.
 //
 // A MapData is what `rrslam-track --save-map` writes and `--load-map` reads,
-// what `rrslam-mapstore` inspects and what `render` draws. It knows nothing of
+// what `rrslam-mapstore` inspects (and the render stage will draw). It knows nothing of
 // threads or of track's live objects: relations are ids, not pointers, and
 // track converts its live map to and from it (stages/track/data/map_io.h).
 //

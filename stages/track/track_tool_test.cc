@@ -76,6 +76,10 @@ class TrackToolTest : public ::testing::Test {
 TEST_F(TrackToolTest, BadOptionsAreUsageErrors) {
   EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--mode fast").exit_code, 64);
   EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--max-frames 1").exit_code, 64);
+  EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--first-frame -1").exit_code, 64);
+  EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--localization-only").exit_code, 64);
+  EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--changed-point-ratio 1.5").exit_code, 64);
+  EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--changed-point-views -2").exit_code, 64);
   EXPECT_EQ(RunTool("track", "--sequence " + Seq()).exit_code, 64);  // Missing flags.
   EXPECT_FALSE(fs::exists(out()));
   const auto help = RunTool("track", "--help");

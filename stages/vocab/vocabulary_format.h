@@ -135,8 +135,10 @@ std::vector<uint32_t> VocabularyParents(const VocabularyView& v, const std::stri
 
 // Hash of the tree's content: XXH3-64 over k, L, weighting, scoring, the
 // node and word counts and the XXH3-64 of each array (descriptors, links,
-// float32 weights). Not of the metadata: a tree converted between text and
-// binary, or trained with the same data in another folder, hashes the same.
+// and the weights, but the root's, to the six significant digits the DBoW2
+// text format keeps). Not of the metadata: a tree converted between text and binary
+// either way, or trained with the same data in another folder, hashes the
+// same.
 uint64_t VocabularyContentHash(const VocabularyView& v);
 
 // Leaf node reached by a descriptor: from the root, the nearest child by

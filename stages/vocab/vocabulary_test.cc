@@ -254,11 +254,24 @@ TEST(Vocabulary, ContentHashIdentifiesTheTreeNotTheFile) {
   EXPECT_EQ(text.content_hash(), binary.content_hash());
   EXPECT_EQ(text.content_hash(), VocabularyContentHash(text.view()));
 
+  // The other way: a binary tree with full-precision weights, converted to
+  // text (six significant digits) and read back.
+  VocabularyData precise = testing::RandomVocabulary(6, 4, 5);
+  for (size_t i = 0; i < precise.info.num_nodes; ++i) {
+    precise.weights()[i] = 0.1234567f + 1e-3f * static_cast<float>(i) / 7.0f;
+  }
+  WriteBinaryVocabulary(dir / "c.rrv", precise.view());
+  const Vocabulary precise_binary = Vocabulary::Load(dir / "c.rrv");
+  WriteTextVocabulary(dir / "c.txt", precise_binary.view(), "c");
+  const Vocabulary precise_text = Vocabulary::Load(dir / "c.txt");
+  EXPECT_NE(precise_text.view().weights[5], precise_binary.view().weights[5]);  // Rounded.
+  EXPECT_EQ(precise_text.content_hash(), precise_binary.content_hash());
+
   const Vocabulary other = Vocabulary::FromData(testing::RandomVocabulary(6, 4, 3), "other");
   EXPECT_NE(other.content_hash(), text.content_hash());
   VocabularyData changed = testing::RandomVocabulary(6, 4, 2);
   VocabularyData same = testing::RandomVocabulary(6, 4, 2);
-  changed.weights()[changed.info.num_nodes - 1] += 0.5f;
+  changed.weights()[changed.info.num_nodes - 1] += 0.001f;  // Within the six digits.
   EXPECT_NE(Vocabulary::FromData(std::move(changed), "c").content_hash(),
             Vocabulary::FromData(std::move(same), "s").content_hash());
 }

@@ -63,6 +63,20 @@ TEST_F(KeyFrameDatabaseTest, IndexesKeyFramesByWordInIdOrder) {
   EXPECT_TRUE(database_.KeyFramesWithWord(50).empty());
 }
 
+// Indexing at once (a loaded map), in any order, gives the index that
+// adding one keyframe at a time gives; adding twice changes nothing.
+TEST_F(KeyFrameDatabaseTest, AddAllEqualsAddingOneAtATime) {
+  KeyFrameDatabase all(vocabulary_);
+  all.AddAll({keyframes_[3], keyframes_[1], keyframes_[0], keyframes_[2]});
+  database_.Add(keyframes_[2]);
+  for (WordId word = 0; word < 100; ++word) {
+    EXPECT_EQ(all.KeyFramesWithWord(word), database_.KeyFramesWithWord(word)) << word;
+  }
+  const BowVector query = Bow(Range(1, 20));
+  EXPECT_EQ(all.DetectRelocalizationCandidates(query),
+            database_.DetectRelocalizationCandidates(query));
+}
+
 TEST_F(KeyFrameDatabaseTest, RelocalizationCandidatesShareMostWordsAndScoreWell) {
   // A shares 20 words with the query, B 18, D 10, C none: only A and B share
   // more than 80% of the most; scores 1.0 and 0.9, both above 75% of the best.

@@ -103,7 +103,9 @@ TEST_F(MapIoTest, LoadThenSaveIsByteIdentical) {
     ASSERT_NE(kf, nullptr);
     EXPECT_EQ(kf->covisible().size(), original->covisible().size());
     EXPECT_EQ(kf->parent() == nullptr, original->parent() == nullptr);
-    if (kf->parent() != nullptr) EXPECT_EQ(kf->parent()->id(), original->parent()->id());
+    if (kf->parent() != nullptr) {
+      EXPECT_EQ(kf->parent()->id(), original->parent()->id());
+    }
     EXPECT_EQ(kf->children().size(), original->children().size());
     EXPECT_EQ(kf->loop_edges().size(), original->loop_edges().size());
     EXPECT_EQ(kf->NumTrackedMapPoints(1), original->NumTrackedMapPoints(1));

@@ -37,6 +37,37 @@ TEST_F(CullingTest, RecentPointsRarelyFoundAreCulled) {
   EXPECT_EQ(ClassifyRecentPoint(*point, k1->id()), RecentPointDecision::kWatch);
 }
 
+// Restore mapping: a loaded point is changed when this run predicted it
+// visible often, rarely found it, and saw through it; views and finds before
+// the run (StartSession) do not count.
+TEST_F(CullingTest, LoadedPointIsChangedWhenSeenThroughAndRarelyFound) {
+  KeyFrame* k0 = AddKeyFrame();
+  KeyFrame* k1 = AddKeyFrame();
+  MapPoint* point = MakeObservedPoint(&map_, {k0, k1}, {0, 0});
+  point->IncreaseVisible(50);
+  point->IncreaseFound(50);  // Well found in the run that made the map.
+  point->StartSession();
+  LocalMapperOptions options;
+  options.changed_point_min_views = 20;
+  options.changed_point_min_found_ratio = 0.25;
+  options.changed_point_min_absent = 3;
+  point->IncreaseVisible(20);
+  point->IncreaseFound(4);  // 20 % of this run's views.
+  EXPECT_EQ(point->SessionVisible(), 20);
+  EXPECT_EQ(point->SessionFound(), 4);
+  EXPECT_FALSE(IsChangedPoint(*point, options));  // Never seen through: occluded.
+  for (int i = 0; i < 3; ++i) point->IncreaseAbsent();
+  EXPECT_TRUE(IsChangedPoint(*point, options));
+  point->IncreaseFound(2);  // 30 %.
+  EXPECT_FALSE(IsChangedPoint(*point, options));
+  options.changed_point_min_found_ratio = 0.5;
+  EXPECT_TRUE(IsChangedPoint(*point, options));
+  options.changed_point_min_views = 21;  // Too few views yet.
+  EXPECT_FALSE(IsChangedPoint(*point, options));
+  options.changed_point_min_views = 0;  // Off.
+  EXPECT_FALSE(IsChangedPoint(*point, options));
+}
+
 TEST_F(CullingTest, RecentPointsNeedMoreThanThreeObservationsAfterTwoKeyFrames) {
   KeyFrame* k0 = AddKeyFrame();
   KeyFrame* mono = AddKeyFrame(/*depth=*/0.0f);

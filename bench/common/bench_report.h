@@ -1,0 +1,84 @@
+// What the benchmark drivers (bench/<name>/bench_<name>.cc) share: running a
+// command line, and a report of figures beside their goals written as text
+// and JSON to bench/results/.
+#pragma once
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace rrslam::bench {
+
+using nlohmann::ordered_json;
+
+// Runs a command line; returns its exit status and echoes it to stderr.
+inline int Run(const std::string& command) {
+  std::cerr << "bench: " << command << std::endl;
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+struct Figure {
+  std::string name;
+  double value;
+  std::string unit;
+  std::string goal;  // Human-readable, e.g. "<= 4.3 cm".
+  bool pass;
+};
+
+class Report {
+ public:
+  void Add(const std::string& section, const Figure& f) { figures_.emplace_back(section, f); }
+  void Note(const std::string& section, const std::string& text) {
+    notes_.emplace_back(section, text);
+  }
+  bool AllPass() const {
+    for (const auto& [s, f] : figures_) {
+      if (!f.pass) return false;
+    }
+    return true;
+  }
+  std::string Text() const {
+    std::ostringstream out;
+    std::string section;
+    for (const auto& [s, f] : figures_) {
+      if (s != section) {
+        out << "\n[" << s << "]\n";
+        section = s;
+        for (const auto& [ns, text] : notes_) {
+          if (ns == s) out << "  # " << text << "\n";
+        }
+      }
+      std::ostringstream value;
+      value << std::setprecision(6) << f.value << " " << f.unit;
+      out << "  " << std::left << std::setw(44) << f.name << std::setw(18) << value.str()
+          << std::setw(16) << ("goal " + f.goal) << (f.pass ? "PASS" : "FAIL") << "\n";
+    }
+    return out.str();
+  }
+  ordered_json Json() const {
+    ordered_json j = ordered_json::array();
+    for (const auto& [s, f] : figures_) {
+      j.push_back({{"section", s},
+                   {"figure", f.name},
+                   {"value", f.value},
+                   {"unit", f.unit},
+                   {"goal", f.goal},
+                   {"pass", f.pass}});
+    }
+    return j;
+  }
+
+ private:
+  std::vector<std::pair<std::string, Figure>> figures_;
+  std::vector<std::pair<std::string, std::string>> notes_;
+};
+
+}  // namespace rrslam::bench

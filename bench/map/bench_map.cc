@@ -1,0 +1,488 @@
+// bench_map: offline maps against the goals of issue 13 (`make bench-map`).
+//
+//   bench_map --bin DIR --runs DIR
+//             [--real NAME --real-dir DIR --real-settings YAML --real-vocab FILE
+//              --real-vocab-text FILE --real-split N]...
+//             [--synth-original DIR --synth-changed DIR --synth-vocab FILE]
+//             [--starts N] [--kills N] --machine TEXT --out PREFIX
+// For each real sequence: the map of frames [0, N) is saved (--save-map); the
+// whole sequence is tracked continuously; then, N cold starts each, frames
+// [N, end) are tracked with --load-map --localization-only, with the binary
+// and with the text form of the same vocabulary: process start to first pose,
+// map load, frames tracked, and the ATE of the localized frames in the map's
+// frame (the ground truth aligned on the mapping run, that alignment applied
+// to the localized trajectory: rrslam-eval ate --align-with). The saved map is
+// also loaded and saved again in process (byte-identical), and its keyframe
+// database rebuilt from the stored bags of words and from the descriptors
+// (the two ways a loader could get it). Synthetic: the original room is
+// mapped, then mapped on in the changed room (rrslam-synth --change
+// moved-box) and in the original again; rrslam-mapstore diff counts points
+// added and removed in the changed regions. Kills: the mapping run of the
+// first real sequence is killed (SIGKILL) at random moments around its save
+// over an existing map; the previous map must be intact every time.
+// Writes PREFIX.txt and PREFIX.json; exit status 0 when every run completed.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "bench/common/bench_report.h"
+#include "common/atomic_file.h"
+#include "common/clock.h"
+#include "common/settings.h"
+#include "common/text.h"
+#include "common/trajectory.h"
+#include "stages/eval/ate.h"
+#include "stages/mapstore/map_file.h"
+#include "stages/track/data/frame.h"
+#include "stages/track/data/keyframe_database.h"
+#include "stages/track/data/map.h"
+#include "stages/track/data/map_io.h"
+#include "stages/track/data/sensor_model.h"
+#include "stages/vocab/vocabulary.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::ordered_json;
+using rrslam::bench::Figure;
+using rrslam::bench::Report;
+using rrslam::bench::Run;
+
+std::string Quote(const fs::path& p) { return rrslam::ShellQuote(p.string()); }
+
+std::string TrackCommand(const fs::path& bin, const fs::path& seq, const fs::path& settings,
+                         const fs::path& vocab, const fs::path& out, const std::string& extra) {
+  return (bin / "rrslam-track").string() + " --quiet --sequence " + Quote(seq) + " --settings " +
+         Quote(settings) + " --vocab " + Quote(vocab) + " --out " + Quote(out) + " " + extra;
+}
+
+nlohmann::json ReadJson(const fs::path& p) {
+  return nlohmann::json::parse(rrslam::ReadFileToString(p));
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double Max(const std::vector<double>& v) {
+  return v.empty() ? 0 : *std::max_element(v.begin(), v.end());
+}
+
+// Runs `argv` and kills it with SIGKILL after `delay_s` seconds unless it
+// ended before. Returns true when it was killed (false: it ended on its own).
+bool RunAndKill(const std::vector<std::string>& argv, double delay_s) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    execv(args[0], args.data());
+    _exit(127);
+  }
+  const auto start = rrslam::SteadyClock::now();
+  int status = 0;
+  while (rrslam::MillisecondsSince(start) < delay_s * 1000) {
+    if (waitpid(pid, &status, WNOHANG) == pid) return false;
+    usleep(1000);
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  return WIFSIGNALED(status);
+}
+
+// Counts the points of a diff list inside a box of synth.json (world frame),
+// grown by `margin`, with the map's frame given by T_map_world.
+int PointsIn(const nlohmann::json& points, const nlohmann::json& box,
+             const rrslam::Rigid3d& T_map_world, double margin) {
+  Eigen::Vector3d lo, hi;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = box.at("bounds_min")[a].get<double>() - margin;
+    hi[a] = box.at("bounds_max")[a].get<double>() + margin;
+  }
+  const rrslam::Rigid3d T_world_map = T_map_world.Inverse();
+  int n = 0;
+  for (const nlohmann::json& p : points) {
+    const Eigen::Vector3d world = T_world_map * Eigen::Vector3d(p.at("position")[0].get<double>(),
+                                                                p.at("position")[1].get<double>(),
+                                                                p.at("position")[2].get<double>());
+    n += (world.array() >= lo.array()).all() && (world.array() <= hi.array()).all();
+  }
+  return n;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Measures offline maps (save, load, cold start, localization, restore mapping).");
+  fs::path bin, runs, synth_original, synth_changed, synth_vocab;
+  std::vector<std::string> real_names;
+  std::vector<fs::path> real_dirs, real_settings, real_vocabs, real_vocabs_text;
+  std::vector<int> real_splits;
+  int starts = 5, kills = 20;
+  std::string machine, out_prefix;
+  app.add_option("--bin", bin, "Folder of the rrslam-* executables")->required();
+  app.add_option("--runs", runs, "Folder for the runs' outputs")->required();
+  app.add_option("--real", real_names, "Name of a real sequence (repeat per sequence)");
+  app.add_option("--real-dir", real_dirs, "Its folder");
+  app.add_option("--real-settings", real_settings, "Its settings YAML");
+  app.add_option("--real-vocab", real_vocabs, "Its binary vocabulary");
+  app.add_option("--real-vocab-text", real_vocabs_text, "The same vocabulary as DBoW2 text");
+  app.add_option("--real-split", real_splits, "Frames mapped; the others are localized");
+  app.add_option("--synth-original", synth_original, "Synthetic room sequence");
+  app.add_option("--synth-changed", synth_changed, "The same, rrslam-synth --change moved-box");
+  app.add_option("--synth-vocab", synth_vocab, "Vocabulary of the synthetic room");
+  app.add_option("--starts", starts, "Cold starts per vocabulary form")->capture_default_str();
+  app.add_option("--kills", kills, "SIGKILLs around a --save-map")->capture_default_str();
+  app.add_option("--machine", machine, "Machine description line");
+  app.add_option("--out", out_prefix, "Result files prefix (writes .txt and .json)")->required();
+  CLI11_PARSE(app, argc, argv);
+  const size_t n_real = real_names.size();
+  if (real_dirs.size() != n_real || real_settings.size() != n_real ||
+      real_vocabs.size() != n_real || real_vocabs_text.size() != n_real ||
+      real_splits.size() != n_real) {
+    std::cerr << "bench_map: give every --real-* option once per --real\n";
+    return 64;
+  }
+  fs::create_directories(runs);
+  Report report;
+  bool failed_run = false;
+
+  for (size_t q = 0; q < n_real; ++q) {
+    const std::string& name = real_names[q];
+    const fs::path& dir = real_dirs[q];
+    const int split = real_splits[q];
+    const std::string s = name;
+    if (!fs::exists(dir / "rgb.txt") || !fs::exists(real_vocabs[q])) {
+      report.Note(s, "skipped: sequence or vocabulary not found");
+      continue;
+    }
+    const fs::path map = runs / (name + ".rrm");
+    const fs::path mapping = runs / (name + "-mapping");
+    const fs::path continuous = runs / (name + "-continuous");
+    if (Run(TrackCommand(bin, dir, real_settings[q], real_vocabs[q], mapping,
+                         "--max-frames " + std::to_string(split) + " --save-map " + Quote(map))) !=
+            0 ||
+        Run(TrackCommand(bin, dir, real_settings[q], real_vocabs[q], continuous, "")) != 0) {
+      failed_run = true;
+      continue;
+    }
+    const nlohmann::json mapping_run = ReadJson(mapping / "run.json");
+    const nlohmann::json& saved = mapping_run.at("map");
+    report.Note(s, "map of frames [0, " + std::to_string(split) +
+                       "): " + std::to_string(saved.at("keyframes_added").get<int>()) +
+                       " keyframes, " + std::to_string(saved.at("map_points_added").get<int>()) +
+                       " map points; vocabulary " +
+                       mapping_run.at("vocabulary").get<std::string>());
+    const double save_ms = saved.at("save_ms").get<double>();
+    report.Add(
+        s, {"map save (encode, write, fsync, rename)", save_ms, "ms", "<= 200 ms", save_ms <= 200});
+    report.Add(s, {"map file size", saved.at("file_bytes").get<double>() / 1e6, "MB", "-", true});
+
+    // Continuous run: the reference ATE.
+    const rrslam::Trajectory gt = rrslam::ReadTumTrajectory(dir / "groundtruth.txt");
+    const double continuous_ate =
+        rrslam::ComputeAte(gt, rrslam::ReadTumTrajectory(continuous / "CameraTrajectory.txt"))
+            .error.rmse;
+    report.Add(s, {"continuous run ATE RMSE (all frames)", continuous_ate * 100, "cm", "-", true});
+    const rrslam::AteAlignment map_alignment = rrslam::ComputeAteAlignment(
+        gt, rrslam::ReadTumTrajectory(mapping / "CameraTrajectory.txt"));
+    // The same frames as the localized ones, tracked continuously (the
+    // continuous run's first frames are the mapping run's, bit for bit, so
+    // it tracks them on the same map), under the same alignment.
+    auto continuous_after = [&](double first_timestamp) {
+      rrslam::Trajectory after;
+      for (const rrslam::StampedPose& p :
+           rrslam::ReadTumTrajectory(continuous / "CameraTrajectory.txt")) {
+        if (p.timestamp >= first_timestamp - 1e-6) after.push_back(p);
+      }
+      return rrslam::EvaluateAte(gt, after, map_alignment).error.rmse;
+    };
+
+    // Cold starts, localization only, binary and text vocabulary.
+    for (int form = 0; form < 2; ++form) {
+      const fs::path& vocab = form == 0 ? real_vocabs[q] : real_vocabs_text[q];
+      const std::string label = form == 0 ? "binary vocabulary" : "text vocabulary";
+      if (!fs::exists(vocab)) {
+        report.Note(s, label + " not found: " + vocab.string());
+        continue;
+      }
+      std::vector<double> first_pose, map_load, vocab_load;
+      nlohmann::json first_run;
+      const int n = form == 0 ? starts : std::max(1, starts / 2);
+      bool ok = true;
+      for (int k = 0; k < n && ok; ++k) {
+        const fs::path out =
+            runs / (name + "-localize-" + std::to_string(form) + "-" + std::to_string(k));
+        ok = Run(TrackCommand(bin, dir, real_settings[q], vocab, out,
+                              "--load-map " + Quote(map) + " --localization-only --first-frame " +
+                                  std::to_string(split))) == 0;
+        if (!ok) break;
+        const nlohmann::json run = ReadJson(out / "run.json");
+        const nlohmann::json& st = run.at("startup");
+        first_pose.push_back(st.at("first_pose_ms").get<double>());
+        map_load.push_back(st.at("map_load_ms").get<double>());
+        vocab_load.push_back(st.at("vocabulary_load_ms").get<double>());
+        if (k == 0) {
+          first_run = run;
+          const rrslam::Trajectory localized =
+              rrslam::ReadTumTrajectory(out / "CameraTrajectory.txt");
+          const rrslam::AteResult ate = rrslam::EvaluateAte(gt, localized, map_alignment);
+          const double same_frames = continuous_after(localized.front().timestamp);
+          const size_t frames = run.at("counts").at("frames").get<size_t>();
+          const size_t tracked = run.at("counts").at("tracked").get<size_t>();
+          if (form == 0) {
+            report.Add(s, {"localized frames tracked", 100.0 * tracked / frames,
+                           "% of " + std::to_string(frames), ">= 99 %", tracked >= 0.99 * frames});
+            report.Add(s, {"ATE RMSE localized, map frame", ate.error.rmse * 100, "cm",
+                           "<= 1.2 x continuous", ate.error.rmse <= 1.2 * continuous_ate});
+            report.Add(s, {"  ratio to the continuous run", ate.error.rmse / continuous_ate, "",
+                           "<= 1.2", ate.error.rmse <= 1.2 * continuous_ate});
+            report.Add(s, {"continuous run, the same frames, map frame", same_frames * 100, "cm",
+                           "-", true});
+            report.Add(s, {"  ratio of localized to that", ate.error.rmse / same_frames, "",
+                           "<= 1.2", ate.error.rmse <= 1.2 * same_frames});
+            report.Add(s,
+                       {"frames tracked as visual odometry",
+                        run.at("map").at("visual_odometry_frames").get<double>(), "", "-", true});
+            report.Add(s, {"relocalizations", run.at("counts").at("relocalizations").get<double>(),
+                           "", "-", true});
+            report.Add(s, {"map load, read and check (run 1)", st.at("map_read_ms").get<double>(),
+                           "ms", "-", true});
+          }
+        }
+      }
+      if (!ok) {
+        failed_run = true;
+        continue;
+      }
+      const std::string runs_text = " (" + label + ", median of " + std::to_string(n) + ")";
+      if (form == 0) {
+        report.Add(s, {"process start to first pose" + runs_text, Median(first_pose), "ms",
+                       "<= 300 ms", Median(first_pose) <= 300});
+        report.Add(s, {"  slowest of the starts", Max(first_pose), "ms", "<= 300 ms",
+                       Max(first_pose) <= 300});
+        report.Add(s, {"map load" + runs_text, Median(map_load), "ms", "<= 50 ms",
+                       Median(map_load) <= 50});
+        report.Add(s, {"vocabulary load" + runs_text, Median(vocab_load), "ms", "-", true});
+      } else {
+        report.Add(s, {"process start to first pose" + runs_text, Median(first_pose), "ms",
+                       "(reported)", true});
+        report.Add(s,
+                   {"vocabulary load" + runs_text, Median(vocab_load), "ms", "(reported)", true});
+      }
+    }
+
+    // In process: load -> save byte-identical; keyframe database from the
+    // stored bags of words vs. from the descriptors.
+    try {
+      const rrslam::Settings settings = rrslam::ReadSettings(real_settings[q]);
+      const rrslam::Vocabulary vocabulary = rrslam::Vocabulary::Load(real_vocabs[q]);
+      const std::string bytes = rrslam::ReadFileToString(map);
+      const std::span<const uint8_t> file(reinterpret_cast<const uint8_t*>(bytes.data()),
+                                          bytes.size());
+      rrslam::MapData data = rrslam::ParseMap(file, map.string());
+      const rrslam::MapCamera camera = data.camera;
+      const std::string metadata = data.metadata;
+      const std::string vocabulary_name = data.vocabulary.name;
+      const int levels_up = data.bow_levels_up;
+      const rrslam::SensorModel sensor(settings, camera.width, camera.height);
+      rrslam::Map live;
+      rrslam::KeyFrameDatabase database(vocabulary);
+      rrslam::LoadMapData(std::move(data), sensor, vocabulary, levels_up, &live, &database,
+                          map.string());
+      const std::vector<uint8_t> again = rrslam::EncodeMap(
+          rrslam::ToMapData(live, camera, vocabulary, vocabulary_name, levels_up, metadata));
+      const bool identical =
+          again.size() == file.size() && std::equal(again.begin(), again.end(), file.begin());
+      report.Add(s, {"load -> save byte-identical", identical ? 1.0 : 0.0, "", "1", identical});
+
+      const std::vector<rrslam::KeyFrame*> keyframes = live.KeyFrames();
+      rrslam::KeyFrameDatabase rebuilt(vocabulary);
+      auto start = rrslam::SteadyClock::now();
+      rebuilt.AddAll(keyframes);
+      const double index_ms = rrslam::MillisecondsSince(start);
+      start = rrslam::SteadyClock::now();
+      for (const rrslam::KeyFrame* kf : keyframes) {
+        rrslam::BowVector bow;
+        rrslam::FeatureVector features;
+        vocabulary.Transform(kf->features().descriptors, &bow, &features, levels_up);
+      }
+      const double bow_ms = rrslam::MillisecondsSince(start);
+      report.Add(s, {"keyframe database from stored BoW (index build)", index_ms, "ms", "-", true});
+      report.Add(s, {"BoW recomputed from descriptors instead", bow_ms, "ms", "-", true});
+    } catch (const std::exception& e) {
+      report.Note(s, std::string("in-process round trip failed: ") + e.what());
+      failed_run = true;
+    }
+
+    // Restore mapping on the same sequence (nothing changed): few points
+    // are taken for changed ones.
+    const fs::path restore = runs / (name + "-restore");
+    if (Run(TrackCommand(bin, dir, real_settings[q], real_vocabs[q], restore,
+                         "--load-map " + Quote(map) + " --first-frame " + std::to_string(split))) ==
+        0) {
+      const nlohmann::json run = ReadJson(restore / "run.json");
+      const nlohmann::json& m = run.at("map");
+      const double culled = m.at("changed_points_culled").get<double>();
+      const double loaded = m.at("map_points_loaded").get<double>();
+      report.Add(s, {"restore mapping, unchanged scene: loaded points judged changed",
+                     100 * culled / loaded, "%", "-", true});
+      report.Add(s,
+                 {"restore mapping: frames tracked", run.at("counts").at("tracked").get<double>(),
+                  "of " + std::to_string(run.at("counts").at("frames").get<int>()), "-", true});
+      const double ate =
+          rrslam::EvaluateAte(gt, rrslam::ReadTumTrajectory(restore / "CameraTrajectory.txt"),
+                              map_alignment)
+              .error.rmse;
+      report.Add(s, {"restore mapping: ATE RMSE, map frame", ate * 100, "cm", "-", true});
+      const double same_frames = continuous_after(
+          rrslam::ReadTumTrajectory(restore / "CameraTrajectory.txt").front().timestamp);
+      report.Add(s,
+                 {"  ratio to the continuous run's same frames", ate / same_frames, "", "-", true});
+    } else {
+      failed_run = true;
+    }
+  }
+
+  // Restore mapping on a changed room.
+  if (!synth_original.empty() && fs::exists(synth_original / "rgb.txt") &&
+      fs::exists(synth_changed / "rgb.txt") && fs::exists(synth_vocab)) {
+    const std::string s = "restore mapping, synthetic room with a moved box and a new one";
+    const fs::path settings = synth_original / "settings.yaml";
+    const fs::path map = runs / "room.rrm", changed_map = runs / "room-changed.rrm",
+                   same_map = runs / "room-same.rrm";
+    const fs::path out = runs / "room-changed";
+    bool ok =
+        Run(TrackCommand(bin, synth_original, settings, synth_vocab, runs / "room-mapping",
+                         "--save-map " + Quote(map))) == 0 &&
+        Run(TrackCommand(bin, synth_changed, settings, synth_vocab, out,
+                         "--load-map " + Quote(map) + " --save-map " + Quote(changed_map))) == 0 &&
+        Run(TrackCommand(bin, synth_original, settings, synth_vocab, runs / "room-same",
+                         "--load-map " + Quote(map) + " --save-map " + Quote(same_map))) == 0 &&
+        Run((bin / "rrslam-mapstore").string() + " diff " + Quote(map) + " " + Quote(changed_map) +
+            " --radius 0.05 --json " + Quote(runs / "diff.json") + " > /dev/null") == 0;
+    if (ok) {
+      const nlohmann::json d = ReadJson(runs / "diff.json");
+      const nlohmann::json change = ReadJson(synth_changed / "synth.json").at("scene_change");
+      const rrslam::Trajectory gt = rrslam::ReadTumTrajectory(synth_changed / "groundtruth.txt");
+      const rrslam::Trajectory est = rrslam::ReadTumTrajectory(out / "CameraTrajectory.txt");
+      const rrslam::Rigid3d T_map_world = gt.front().T_world_cam.Inverse();
+      const nlohmann::json& added = d.at("map_points").at("added");
+      const nlohmann::json& removed = d.at("map_points").at("removed");
+      const int on_new_box = PointsIn(added, change.at("added")[0], T_map_world, 0.05);
+      const int at_new_place = PointsIn(added, change.at("moved")[0].at("to"), T_map_world, 0.05);
+      const int removed_old =
+          PointsIn(removed, change.at("moved")[0].at("from"), T_map_world, 0.05);
+      const nlohmann::json run = ReadJson(out / "run.json");
+      const nlohmann::json same = ReadJson(runs / "room-same" / "run.json");
+      report.Note(s, "map of " + synth_original.string() + " mapped on in " +
+                         synth_changed.string() + "; diff radius 5 cm, regions grown by 5 cm");
+      report.Add(s, {"frames tracked", run.at("counts").at("tracked").get<double>(),
+                     "of " + std::to_string(run.at("counts").at("frames").get<int>()), "all",
+                     run.at("counts").at("tracked") == run.at("counts").at("frames")});
+      report.Add(s, {"points added on the new box", double(on_new_box), "", "> 0", on_new_box > 0});
+      report.Add(s, {"points added at the moved box's new place", double(at_new_place), "", "> 0",
+                     at_new_place > 0});
+      report.Add(s, {"points removed at the moved box's old place", double(removed_old), "", "> 0",
+                     removed_old > 0});
+      report.Add(s, {"points added in all", double(added.size()), "", "-", true});
+      report.Add(s, {"points removed in all", double(removed.size()), "", "-", true});
+      report.Add(s, {"loaded points culled as changed",
+                     run.at("map").at("changed_points_culled").get<double>(), "", "-", true});
+      report.Add(s, {"the same, unchanged room (false changes)",
+                     same.at("map").at("changed_points_culled").get<double>(), "", "-", true});
+      // No jump: the largest difference between estimated and true motion
+      // from one frame to the next.
+      double worst_step = 0;
+      for (size_t k = 1; k < std::min(est.size(), gt.size()); ++k) {
+        const double step_est =
+            (est[k].T_world_cam.translation - est[k - 1].T_world_cam.translation).norm();
+        const double step_gt =
+            (gt[k].T_world_cam.translation - gt[k - 1].T_world_cam.translation).norm();
+        worst_step = std::max(worst_step, std::abs(step_est - step_gt));
+      }
+      report.Add(s, {"largest frame-to-frame jump (vs. true motion)", worst_step * 100, "cm",
+                     "<= 1 cm", worst_step <= 0.01});
+      report.Add(s, {"ATE RMSE", rrslam::ComputeAte(gt, est).error.rmse * 100, "cm", "-", true});
+    } else {
+      failed_run = true;
+    }
+  }
+
+  // SIGKILL at random moments around a --save-map over an existing map.
+  if (n_real > 0 && kills > 0 && fs::exists(runs / (real_names[0] + ".rrm"))) {
+    const std::string s = "kill -9 during --save-map (" + real_names[0] + " mapping run)";
+    const fs::path original = runs / (real_names[0] + ".rrm");
+    const fs::path target = runs / "killed.rrm";
+    // A run that is not killed: its duration, and the bytes it writes.
+    fs::copy_file(original, target, fs::copy_options::overwrite_existing);
+    const std::string old_bytes = rrslam::ReadFileToString(target);
+    const std::vector<std::string> argv_run = {(bin / "rrslam-track").string(),
+                                               "--quiet",
+                                               "--sequence",
+                                               real_dirs[0].string(),
+                                               "--settings",
+                                               real_settings[0].string(),
+                                               "--vocab",
+                                               real_vocabs[0].string(),
+                                               "--out",
+                                               (runs / "killed-run").string(),
+                                               "--max-frames",
+                                               std::to_string(real_splits[0] / 4),
+                                               "--save-map",
+                                               target.string()};
+    const auto start = rrslam::SteadyClock::now();
+    RunAndKill(argv_run, 1e9);
+    const double full_s = rrslam::MillisecondsSince(start) / 1000;
+    const std::string new_bytes = rrslam::ReadFileToString(target);
+    std::mt19937 rng(13);
+    // Most kills land in the last half second, where the map is written.
+    std::uniform_real_distribution<double> when(std::max(0.0, full_s - 0.5), full_s + 0.05);
+    int intact_old = 0, complete_new = 0, broken = 0, killed = 0;
+    for (int k = 0; k < kills; ++k) {
+      fs::copy_file(original, target, fs::copy_options::overwrite_existing);
+      killed += RunAndKill(argv_run, when(rng));
+      const std::string now = rrslam::ReadFileToString(target);
+      if (now == old_bytes) {
+        ++intact_old;
+      } else if (now == new_bytes) {
+        ++complete_new;
+      } else {
+        ++broken;
+      }
+    }
+    report.Note(s,
+                "run of " + std::to_string(full_s) + " s; kills uniform in its last 0.5 s + 50 ms");
+    report.Add(s, {"runs killed", double(killed), "of " + std::to_string(kills), "-", true});
+    report.Add(s, {"previous map intact", double(intact_old), "", "-", true});
+    report.Add(s,
+               {"new map complete (killed after the rename)", double(complete_new), "", "-", true});
+    report.Add(s, {"map file neither (corrupt)", double(broken), "", "0", broken == 0});
+  }
+
+  std::ostringstream text;
+  text << "# bench-map: offline maps against the goals of issue 13 (command: make bench-map)\n";
+  text << "# machine: " << machine << "\n";
+  text << report.Text();
+  text << "\nall goals met: " << (report.AllPass() ? "yes" : "no") << "\n";
+  ordered_json j;
+  j["machine"] = machine;
+  j["figures"] = report.Json();
+  j["all_goals_met"] = report.AllPass();
+  rrslam::WriteFileAtomically(out_prefix + ".txt", text.str());
+  rrslam::WriteFileAtomically(out_prefix + ".json", j.dump(2) + "\n");
+  std::cout << text.str();
+  return failed_run ? 1 : 0;
+}
