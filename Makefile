@@ -45,18 +45,19 @@ test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)
 
 # --- Sanitizer builds of the track tests --------------------------------------
-# The track stage's tests (CTest track/*) and its end-to-end test (e2e/track,
-# the one that runs rrslam-track --mode realtime, with local mapping in its own
-# thread), built with -DRRSLAM_SANITIZE=thread / address in a tree of their own
-# (build/ is not touched) and run there; the tests run the tools of that tree's
-# bin/, so every rrslam-* they start is instrumented too. e2e/track also runs
-# rrslam-synth, -extract, -cluster, -vocab and -eval. Each report goes to
+# The track stage's tests (CTest track/*) and its end-to-end tests (e2e/track,
+# which runs rrslam-track --mode realtime, with local mapping in its own
+# thread; e2e/map, which also maps on a loaded map in realtime mode), built
+# with -DRRSLAM_SANITIZE=thread / address in a tree of their own (build/ is
+# not touched) and run there; the tests run the tools of that tree's bin/, so
+# every rrslam-* they start is instrumented too. The e2e tests also run
+# rrslam-synth, -extract, -cluster, -vocab, -eval and -mapstore. Each report goes to
 # build-<x>san/sanitizer-logs/ (a test that checks only an exit code would
 # swallow it), is printed at the end, and fails the target. tests/tsan.supp
 # lists the third-party reports TSan may ignore, each with its reason.
-SANITIZER_TARGETS := track-tests e2e_track rrslam-synth rrslam-extract rrslam-cluster \
-                     rrslam-vocab rrslam-eval
-SANITIZER_TESTS := ^(track/|e2e/track$$)
+SANITIZER_TARGETS := track-tests e2e_track e2e_map rrslam-synth rrslam-extract rrslam-cluster \
+                     rrslam-vocab rrslam-eval rrslam-mapstore
+SANITIZER_TESTS := ^(track/|e2e/track$$|e2e/map$$)
 TSAN_OPTIONS ?= halt_on_error=1 second_deadlock_stack=1
 ASAN_OPTIONS ?= halt_on_error=1 detect_leaks=1
 

@@ -123,12 +123,14 @@ TEST_F(MapPipelineTest, LocalizationOnlyTracksEveryFrameInTheMapsFrame) {
   EXPECT_LT(worst, 0.01);
 }
 
-// Restore mapping on the same scene: the loaded map is mapped on, the saved
-// map keeps the loaded keyframes, and hardly a point is judged changed.
+// Restore mapping on the same scene, in realtime mode (local mapping and
+// loop closing in their threads on the loaded map): the loaded map is mapped
+// on, the saved map keeps the loaded keyframes, and hardly a point is judged
+// changed.
 TEST_F(MapPipelineTest, RestoreMappingExtendsTheLoadedMap) {
   const fs::path out = path("restore"), updated = path("updated.rrm");
-  const auto r = Track(
-      out, "--load-map " + Quote(map()) + " --save-map " + Quote(updated) + " --first-frame 60");
+  const auto r = Track(out, "--load-map " + Quote(map()) + " --save-map " + Quote(updated) +
+                                " --first-frame 60 --mode realtime");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json run = ReadJson(out / "run.json");
   EXPECT_EQ(run.at("counts").at("tracked").get<int>(), kFrames - 60);

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -14,9 +15,14 @@
 #include <utility>
 #include <vector>
 
+#include "common/text.h"
+
 namespace rrslam::bench {
 
 using nlohmann::ordered_json;
+
+// `p` as one shell word.
+inline std::string Quote(const std::filesystem::path& p) { return ShellQuote(p.string()); }
 
 // Runs a command line; returns its exit status and echoes it to stderr.
 inline int Run(const std::string& command) {

@@ -54,10 +54,9 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
 using rrslam::bench::Figure;
+using rrslam::bench::Quote;
 using rrslam::bench::Report;
 using rrslam::bench::Run;
-
-std::string Quote(const fs::path& p) { return rrslam::ShellQuote(p.string()); }
 
 std::string TrackCommand(const fs::path& bin, const fs::path& seq, const fs::path& settings,
                          const fs::path& vocab, const fs::path& out, const std::string& extra) {

@@ -47,10 +47,9 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
 using rrslam::bench::Figure;
+using rrslam::bench::Quote;
 using rrslam::bench::Report;
 using rrslam::bench::Run;
-
-std::string Quote(const fs::path& p) { return rrslam::ShellQuote(p.string()); }
 
 struct RunResult {
   bool ok = false;

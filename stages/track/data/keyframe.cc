@@ -1,11 +1,19 @@
 #include "stages/track/data/keyframe.h"
 
 #include <algorithm>
+#include <utility>
 
 namespace rrslam {
 
 KeyFrame::KeyFrame(KeyFrameId id, const Frame& frame)
     : View(frame), id_(id), frame_id_(frame.id()), map_points_(frame.map_points) {}
+
+// Only the View base and map_points are moved from; id() is Frame's own.
+KeyFrame::KeyFrame(KeyFrameId id, Frame&& frame)
+    : View(std::move(static_cast<View&>(frame))),
+      id_(id),
+      frame_id_(frame.id()),
+      map_points_(std::move(frame.map_points)) {}
 
 int KeyFrame::NumTrackedMapPoints(int min_observations) const {
   int n = 0;

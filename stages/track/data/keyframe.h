@@ -25,6 +25,9 @@ class KeyFrame : public View {
   // A keyframe from a tracked frame: shares its features, copies its pose, its
   // bag of words (when computed) and its map-point associations.
   KeyFrame(KeyFrameId id, const Frame& frame);
+  // The same, taking the frame's bag of words and associations over (a map
+  // being loaded).
+  KeyFrame(KeyFrameId id, Frame&& frame);
 
   KeyFrameId id() const { return id_; }
   uint64_t frame_id() const { return frame_id_; }

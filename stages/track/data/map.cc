@@ -20,12 +20,14 @@ MapPoint* Map::CreateMapPoint(const Eigen::Vector3d& position_world, KeyFrame* r
   return map_points_.back().get();
 }
 
-KeyFrame* Map::CreateKeyFrameWithId(KeyFrameId id, const Frame& frame) {
+KeyFrame* Map::CreateKeyFrameWithId(KeyFrameId id, Frame&& frame) {
   if (id < keyframes_.size()) {
     throw std::invalid_argument("keyframe id " + std::to_string(id) + " is taken");
   }
   ReserveIds(id, map_points_.size());
-  return CreateKeyFrame(frame);
+  keyframes_.push_back(std::make_unique<KeyFrame>(id, std::move(frame)));
+  keyframe_in_map_.push_back(0);
+  return keyframes_.back().get();
 }
 
 MapPoint* Map::CreateMapPointWithId(MapPointId id, const Eigen::Vector3d& position_world,

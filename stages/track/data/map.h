@@ -49,7 +49,7 @@ class Map {
   // num_created_keyframes() / num_created_map_points() (objects are created in
   // id order); the ids skipped stay unused (keyframe_by_id gives nullptr).
   // Throws std::invalid_argument for an id already taken.
-  KeyFrame* CreateKeyFrameWithId(KeyFrameId id, const Frame& frame);
+  KeyFrame* CreateKeyFrameWithId(KeyFrameId id, Frame&& frame);
   MapPoint* CreateMapPointWithId(MapPointId id, const Eigen::Vector3d& position_world,
                                  KeyFrame* reference_keyframe);
   // The next keyframe / map point created gets at least these ids.

@@ -263,7 +263,7 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
       fv.entries = std::move(r.feature_vector);
       frame.SetBow(std::move(bow), std::move(fv));
     }
-    keyframes.push_back(map->CreateKeyFrameWithId(r.id, frame));
+    keyframes.push_back(map->CreateKeyFrameWithId(r.id, std::move(frame)));
   }
   auto keyframe = [&](uint64_t id) { return map->keyframe_by_id(id); };
 
