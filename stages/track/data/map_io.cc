@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <memory>
+#include <optional>
+#include <thread>
 #include <utility>
 
 #include "common/errors.h"
@@ -236,35 +239,62 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
                  source, data.bow_levels_up, bow_levels_up);
   }
 
-  // Keyframes, in id order.
+  // Each keyframe's frame (features, pose, bag of words), built on two
+  // threads (independent per keyframe; the result does not depend on the
+  // split), then the keyframes, in id order.
+  std::vector<std::optional<Frame>> frames(data.keyframes.size());
+  auto build = [&](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) {
+      KeyFrameRecord& r = data.keyframes[k];
+      std::vector<Keypoint> keypoints(r.keypoints.size());
+      for (size_t i = 0; i < keypoints.size(); ++i) {
+        const MapKeypoint& m = r.keypoints[i];
+        Keypoint& kp = keypoints[i];
+        kp.pixel = {m.pixel_x, m.pixel_y};
+        kp.undistorted = {m.undistorted_x, m.undistorted_y};
+        kp.angle_deg = m.angle_deg;
+        kp.octave = m.octave;
+        kp.response = m.response;
+        kp.depth = m.depth;
+      }
+      Frame& frame = frames[k].emplace(
+          r.frame_id, r.timestamp,
+          BuildFrameFeatures(sensor, std::move(keypoints), std::move(r.descriptors)));
+      frame.SetPose(FromMapPose(r.T_cam_world));
+      if (recompute_bow) {
+        frame.ComputeBow(vocabulary, bow_levels_up);
+      } else {
+        BowVector bow;
+        bow.entries = std::move(r.bow);
+        FeatureVector fv;
+        fv.entries = std::move(r.feature_vector);
+        frame.SetBow(std::move(bow), std::move(fv));
+      }
+    }
+  };
+  const size_t half = frames.size() / 2;
+  {
+    std::exception_ptr errors[2];
+    auto guarded = [&](int part, size_t begin, size_t end) {
+      try {
+        build(begin, end);
+      } catch (...) {
+        errors[part] = std::current_exception();
+      }
+    };
+    std::thread second(guarded, 1, half, frames.size());
+    guarded(0, 0, half);
+    second.join();
+    for (const std::exception_ptr& e : errors) {
+      if (e) std::rethrow_exception(e);
+    }
+  }
   std::vector<KeyFrame*> keyframes;
   keyframes.reserve(data.keyframes.size());
-  for (KeyFrameRecord& r : data.keyframes) {
-    std::vector<Keypoint> keypoints(r.keypoints.size());
-    for (size_t i = 0; i < keypoints.size(); ++i) {
-      const MapKeypoint& m = r.keypoints[i];
-      Keypoint& k = keypoints[i];
-      k.pixel = {m.pixel_x, m.pixel_y};
-      k.undistorted = {m.undistorted_x, m.undistorted_y};
-      k.angle_deg = m.angle_deg;
-      k.octave = m.octave;
-      k.response = m.response;
-      k.depth = m.depth;
-    }
-    Frame frame(r.frame_id, r.timestamp,
-                BuildFrameFeatures(sensor, std::move(keypoints), std::move(r.descriptors)));
-    frame.SetPose(FromMapPose(r.T_cam_world));
-    if (recompute_bow) {
-      frame.ComputeBow(vocabulary, bow_levels_up);
-    } else {
-      BowVector bow;
-      bow.entries = std::move(r.bow);
-      FeatureVector fv;
-      fv.entries = std::move(r.feature_vector);
-      frame.SetBow(std::move(bow), std::move(fv));
-    }
-    keyframes.push_back(map->CreateKeyFrameWithId(r.id, std::move(frame)));
+  for (size_t k = 0; k < frames.size(); ++k) {
+    keyframes.push_back(map->CreateKeyFrameWithId(data.keyframes[k].id, std::move(*frames[k])));
   }
+  frames.clear();
   auto keyframe = [&](uint64_t id) { return map->keyframe_by_id(id); };
 
   // Map points with their observations (both sides).
