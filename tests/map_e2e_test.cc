@@ -257,6 +257,22 @@ TEST_F(MapPipelineTest, BadMapsAreRefused) {
   EXPECT_NE(r.output.find("Camera.fx"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(path("bad5")));
 
+  // Another vocabulary (a two-word DBoW2 tree): the map names both trees.
+  std::string two_words = "2 1 0 0\n";
+  for (int word = 0; word < 2; ++word) {
+    two_words += "0 1 ";
+    for (int b = 0; b < 32; ++b) two_words += std::to_string(word * 255) + " ";
+    two_words += " 1\n";
+  }
+  testing::WriteTextFile(path("two.txt"), two_words);
+  r = testing::RunTool("track", "--quiet --sequence " + Quote(seq()) + " --settings " +
+                                    Quote(settings()) + " --vocab " + Quote(path("two.txt")) +
+                                    " --out " + Quote(path("bad8")) + " --load-map " +
+                                    Quote(map()));
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("built with vocabulary tree"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(path("bad8")));
+
   // A --save-map that cannot be written fails before tracking, and an
   // existing map is never touched by a failed run.
   r = Track(path("bad6"), "--save-map " + Quote(path("no-such-folder") / "m.rrm"));
