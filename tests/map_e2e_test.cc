@@ -17,13 +17,14 @@
 #include "common/testing.h"
 #include "common/text.h"
 #include "common/trajectory.h"
+#include "tests/room_pipeline.h"
 
 namespace rrslam {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
+using testing::Quote;
 
 constexpr int kFrames = 120;
 
@@ -35,18 +36,9 @@ class MapPipelineTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir();
-    auto run = [](const std::string& stage, const std::string& args) {
-      const auto r = testing::RunTool(stage, "--quiet " + args);
-      ASSERT_EQ(r.exit_code, 0) << "rrslam-" << stage << " " << args << "\n" << r.output;
-    };
-    run("synth", "--out " + Quote(seq()) + " --width 320 --height 240 --trajectory loop --frames " +
-                     std::to_string(kFrames) + " --seed 3");
-    run("extract", "--sequence " + Quote(seq()) + " --settings " + Quote(settings()) + " --out " +
-                       Quote(path("room.h5")));
-    run("cluster", "--features " + Quote(path("room.h5")) + " --out " + Quote(path("tree.h5")) +
-                       " --k 8 -L 3");
-    run("vocab", "build --tree " + Quote(path("tree.h5")) + " --features " +
-                     Quote(path("room.h5")) + " --out " + Quote(vocab()));
+    testing::PrepareRoomSequence(
+        dir_->path(), "--trajectory loop --frames " + std::to_string(kFrames) + " --seed 3");
+    if (HasFatalFailure()) return;
     // The map of the whole loop.
     const auto r = Track(path("mapping"), "--save-map " + Quote(map()));
     ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -18,32 +18,16 @@
 #include "common/testing.h"
 #include "common/text.h"
 #include "common/trajectory.h"
+#include "tests/room_pipeline.h"
 
 namespace rrslam {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
+using testing::Quote;
 
 constexpr int kFrames = 120;
-
-// Renders sequence `room` in `dir` with rrslam-synth `synth_args` (320 x 240
-// keeps rendering and extraction quick) and trains room.rrv on it.
-void PrepareSequence(const fs::path& dir, const std::string& synth_args) {
-  auto run = [](const std::string& stage, const std::string& args) {
-    const auto r = testing::RunTool(stage, "--quiet " + args);
-    ASSERT_EQ(r.exit_code, 0) << "rrslam-" << stage << " " << args << "\n" << r.output;
-  };
-  const fs::path seq = dir / "room", features = dir / "room.h5";
-  run("synth", "--out " + Quote(seq) + " --width 320 --height 240 " + synth_args);
-  run("extract", "--sequence " + Quote(seq) + " --settings " + Quote(seq / "settings.yaml") +
-                     " --out " + Quote(features));
-  run("cluster",
-      "--features " + Quote(features) + " --out " + Quote(dir / "tree.h5") + " --k 8 -L 3");
-  run("vocab", "build --tree " + Quote(dir / "tree.h5") + " --features " + Quote(features) +
-                   " --out " + Quote(dir / "room.rrv"));
-}
 
 // ATE RMSE (metres) of a trajectory against the ground truth, which must
 // pair `frames` poses.
@@ -63,8 +47,8 @@ class TrackPipelineTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir();
-    PrepareSequence(dir_->path(),
-                    "--trajectory loop --frames " + std::to_string(kFrames) + " --seed 3");
+    testing::PrepareRoomSequence(
+        dir_->path(), "--trajectory loop --frames " + std::to_string(kFrames) + " --seed 3");
   }
   static void TearDownTestSuite() {
     delete dir_;
@@ -150,8 +134,8 @@ TEST_F(TrackPipelineTest, MaxFramesTracksAPrefix) {
 TEST_F(TrackPipelineTest, TracksAFastShakeWithMotionBlur) {
   constexpr int kShakeFrames = 60;
   testing::TempDir shake;
-  PrepareSequence(shake.path(),
-                  "--trajectory shake --frames " + std::to_string(kShakeFrames) + " --seed 2");
+  testing::PrepareRoomSequence(
+      shake.path(), "--trajectory shake --frames " + std::to_string(kShakeFrames) + " --seed 2");
   const fs::path seq = shake.path() / "room", out = shake.path() / "track";
   const auto r = testing::RunTool(
       "track", "--quiet --sequence " + Quote(seq) + " --settings " + Quote(seq / "settings.yaml") +
