@@ -13,7 +13,9 @@
 #include <nlohmann/json.hpp>
 
 #include "common/atomic_file.h"
+#include "common/dataset.h"
 #include "common/geometry.h"
+#include "common/image_io.h"
 #include "common/testing.h"
 #include "common/text.h"
 #include "common/trajectory.h"
@@ -264,6 +266,30 @@ TEST_F(MapPipelineTest, BadMapsAreRefused) {
   EXPECT_EQ(r.exit_code, 65) << r.output;
   EXPECT_NE(r.output.find("built with vocabulary tree"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(path("bad8")));
+
+  // A sequence that never shows the mapped place (its images black): no
+  // frame relocalizes, exit 75 and no output.
+  const fs::path dark = path("dark");
+  fs::create_directories(dark / "rgb");
+  fs::create_directories(dark / "depth");
+  {
+    const RgbdSequence room = RgbdSequence::Open(seq());
+    std::ofstream rgb_list(dark / "rgb.txt"), depth_list(dark / "depth.txt");
+    for (int k = 0; k < 5; ++k) {
+      const std::string name = std::to_string(k) + ".png";
+      WritePng(dark / "rgb" / name, cv::Mat::zeros(240, 320, CV_8UC3));
+      fs::copy_file(room.frame(k).depth_path, dark / "depth" / name);
+      rgb_list << std::fixed << k / 30.0 << " rgb/" << name << "\n";
+      depth_list << std::fixed << k / 30.0 << " depth/" << name << "\n";
+    }
+  }
+  r = testing::RunTool("track", "--quiet --sequence " + Quote(dark) + " --settings " +
+                                    Quote(settings()) + " --vocab " + Quote(vocab()) + " --out " +
+                                    Quote(path("bad9")) + " --load-map " + Quote(map()) +
+                                    " --localization-only");
+  EXPECT_EQ(r.exit_code, 75) << r.output;
+  EXPECT_NE(r.output.find("no frame relocalized"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(path("bad9")));
 
   // A --save-map that cannot be written fails before tracking, and an
   // existing map is never touched by a failed run.

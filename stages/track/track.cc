@@ -483,6 +483,11 @@ TrackSummary RunTrack(const TrackOptions& options) {
                    std::to_string(tracker_options.min_initial_points) +
                    " of them with depth (is the depth all zero?)"));
   }
+  if (!options.load_map.empty() && startup.first_pose_frame < 0) {
+    throw AlgorithmError(options.sequence.string() + ": no frame relocalized in map " +
+                         options.load_map.string() + " (" + std::to_string(frames.size()) +
+                         " frames tried; is it a map of this place?)");
+  }
 
   // Outputs.
   summary.frames = frames.size();
