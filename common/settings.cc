@@ -1,5 +1,6 @@
 #include "common/settings.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <opencv2/core.hpp>
@@ -181,6 +182,13 @@ std::string FormatSettings(const Settings& s) {
 
 void WriteSettings(const std::filesystem::path& path, const Settings& settings) {
   WriteFileAtomically(path, FormatSettings(settings));
+}
+
+const SettingPair* FirstDifferentSetting(std::span<const SettingPair> pairs) {
+  for (const SettingPair& p : pairs) {
+    if (std::abs(p.recorded - p.given) > 1e-9 * std::max(1.0, std::abs(p.given))) return &p;
+  }
+  return nullptr;
 }
 
 }  // namespace rrslam

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <filesystem>
+#include <span>
 #include <string>
 
 #include "common/camera.h"
@@ -74,6 +75,17 @@ Settings ReadSettings(const std::filesystem::path& path);
 // the errors of ReadSettings; `name` stands for the file in messages. The
 // result's `source` is empty.
 Settings ParseSettings(const std::string& text, const std::string& name);
+
+// One setting as two sources give it (e.g. the settings a file was made with,
+// and this run's), for consistency checks.
+struct SettingPair {
+  const char* key;  // "Camera.fx"
+  double recorded;  // In the file.
+  double given;     // In this run's settings.
+};
+// The first pair whose values differ by more than text rounding (relative
+// 1e-9), or nullptr when all agree.
+const SettingPair* FirstDifferentSetting(std::span<const SettingPair> pairs);
 
 // Formats settings in the same layout (deterministic text).
 std::string FormatSettings(const Settings& settings);

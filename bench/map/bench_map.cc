@@ -191,9 +191,9 @@ int main(int argc, char** argv) {
 
     // Continuous run: the reference ATE.
     const rrslam::Trajectory gt = rrslam::ReadTumTrajectory(dir / "groundtruth.txt");
-    const double continuous_ate =
-        rrslam::ComputeAte(gt, rrslam::ReadTumTrajectory(continuous / "CameraTrajectory.txt"))
-            .error.rmse;
+    const rrslam::Trajectory continuous_trajectory =
+        rrslam::ReadTumTrajectory(continuous / "CameraTrajectory.txt");
+    const double continuous_ate = rrslam::ComputeAte(gt, continuous_trajectory).error.rmse;
     report.Add(s, {"continuous run ATE RMSE (all frames)", continuous_ate * 100, "cm", "-", true});
     const rrslam::AteAlignment map_alignment = rrslam::ComputeAteAlignment(
         gt, rrslam::ReadTumTrajectory(mapping / "CameraTrajectory.txt"));
@@ -202,8 +202,7 @@ int main(int argc, char** argv) {
     // it tracks them on the same map), under the same alignment.
     auto continuous_after = [&](double first_timestamp) {
       rrslam::Trajectory after;
-      for (const rrslam::StampedPose& p :
-           rrslam::ReadTumTrajectory(continuous / "CameraTrajectory.txt")) {
+      for (const rrslam::StampedPose& p : continuous_trajectory) {
         if (p.timestamp >= first_timestamp - 1e-6) after.push_back(p);
       }
       return rrslam::EvaluateAte(gt, after, map_alignment).error.rmse;
@@ -341,13 +340,11 @@ int main(int argc, char** argv) {
       report.Add(s,
                  {"restore mapping: frames tracked", run.at("counts").at("tracked").get<double>(),
                   "of " + std::to_string(run.at("counts").at("frames").get<int>()), "-", true});
-      const double ate =
-          rrslam::EvaluateAte(gt, rrslam::ReadTumTrajectory(restore / "CameraTrajectory.txt"),
-                              map_alignment)
-              .error.rmse;
+      const rrslam::Trajectory restored =
+          rrslam::ReadTumTrajectory(restore / "CameraTrajectory.txt");
+      const double ate = rrslam::EvaluateAte(gt, restored, map_alignment).error.rmse;
       report.Add(s, {"restore mapping: ATE RMSE, map frame", ate * 100, "cm", "-", true});
-      const double same_frames = continuous_after(
-          rrslam::ReadTumTrajectory(restore / "CameraTrajectory.txt").front().timestamp);
+      const double same_frames = continuous_after(restored.front().timestamp);
       report.Add(s,
                  {"  ratio to the continuous run's same frames", ate / same_frames, "", "-", true});
     } else {

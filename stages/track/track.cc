@@ -128,31 +128,27 @@ class ImagePrefetcher {
   std::thread thread_;
 };
 
-bool Close(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(1.0, std::abs(b)); }
-
 // The settings a features file was extracted with must give the same
 // keypoints (camera, depth scale, pyramid) as the tracking settings.
 void CheckFeaturesSettings(const std::string& name, const Settings& file, const Settings& s) {
-  const std::pair<const char*, std::pair<double, double>> fields[] = {
-      {"Camera.fx", {file.fx, s.fx}},
-      {"Camera.fy", {file.fy, s.fy}},
-      {"Camera.cx", {file.cx, s.cx}},
-      {"Camera.cy", {file.cy, s.cy}},
-      {"Camera.k1", {file.distortion.k1, s.distortion.k1}},
-      {"Camera.k2", {file.distortion.k2, s.distortion.k2}},
-      {"Camera.p1", {file.distortion.p1, s.distortion.p1}},
-      {"Camera.p2", {file.distortion.p2, s.distortion.p2}},
-      {"Camera.k3", {file.distortion.k3, s.distortion.k3}},
-      {"DepthMapFactor", {file.depth_map_factor, s.depth_map_factor}},
-      {"ORBextractor.scaleFactor", {file.orb.scale_factor, s.orb.scale_factor}},
-      {"ORBextractor.nLevels", {double(file.orb.n_levels), double(s.orb.n_levels)}},
+  const SettingPair fields[] = {
+      {"Camera.fx", file.fx, s.fx},
+      {"Camera.fy", file.fy, s.fy},
+      {"Camera.cx", file.cx, s.cx},
+      {"Camera.cy", file.cy, s.cy},
+      {"Camera.k1", file.distortion.k1, s.distortion.k1},
+      {"Camera.k2", file.distortion.k2, s.distortion.k2},
+      {"Camera.p1", file.distortion.p1, s.distortion.p1},
+      {"Camera.p2", file.distortion.p2, s.distortion.p2},
+      {"Camera.k3", file.distortion.k3, s.distortion.k3},
+      {"DepthMapFactor", file.depth_map_factor, s.depth_map_factor},
+      {"ORBextractor.scaleFactor", file.orb.scale_factor, s.orb.scale_factor},
+      {"ORBextractor.nLevels", double(file.orb.n_levels), double(s.orb.n_levels)},
   };
-  for (const auto& [key, values] : fields) {
-    if (!Close(values.first, values.second)) {
-      throw DataError(name + ": extracted with " + key + " = " + std::to_string(values.first) +
-                      " but the tracking settings " + s.source.string() + " give " +
-                      std::to_string(values.second));
-    }
+  if (const SettingPair* d = FirstDifferentSetting(fields)) {
+    throw DataError(name + ": extracted with " + d->key + " = " + std::to_string(d->recorded) +
+                    " but the tracking settings " + s.source.string() + " give " +
+                    std::to_string(d->given));
   }
 }
 

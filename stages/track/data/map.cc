@@ -7,8 +7,10 @@
 
 namespace rrslam {
 
-KeyFrame* Map::CreateKeyFrame(const Frame& frame) {
-  keyframes_.push_back(std::make_unique<KeyFrame>(keyframes_.size(), frame));
+KeyFrame* Map::CreateKeyFrame(const Frame& frame) { return CreateKeyFrame(Frame(frame)); }
+
+KeyFrame* Map::CreateKeyFrame(Frame&& frame) {
+  keyframes_.push_back(std::make_unique<KeyFrame>(keyframes_.size(), std::move(frame)));
   keyframe_in_map_.push_back(0);
   return keyframes_.back().get();
 }
@@ -25,9 +27,7 @@ KeyFrame* Map::CreateKeyFrameWithId(KeyFrameId id, Frame&& frame) {
     throw std::invalid_argument("keyframe id " + std::to_string(id) + " is taken");
   }
   ReserveIds(id, map_points_.size());
-  keyframes_.push_back(std::make_unique<KeyFrame>(id, std::move(frame)));
-  keyframe_in_map_.push_back(0);
-  return keyframes_.back().get();
+  return CreateKeyFrame(std::move(frame));
 }
 
 MapPoint* Map::CreateMapPointWithId(MapPointId id, const Eigen::Vector3d& position_world,

@@ -38,6 +38,8 @@ class Map {
   // Creates a keyframe from a frame (next keyframe id). It belongs to the
   // Map but is not in the map until AddKeyFrame.
   KeyFrame* CreateKeyFrame(const Frame& frame);
+  // The same, taking the frame's features, bag of words and associations over.
+  KeyFrame* CreateKeyFrame(Frame&& frame);
   // Creates a map point (next id) observed by nobody yet; not in the map
   // until AddMapPoint.
   MapPoint* CreateMapPoint(const Eigen::Vector3d& position_world, KeyFrame* reference_keyframe);

@@ -33,8 +33,6 @@ Rigid3d FromMapPose(const MapPose& p) {
   return Rigid3d(Eigen::Quaterniond(p.qw, p.qx, p.qy, p.qz), Eigen::Vector3d(p.tx, p.ty, p.tz));
 }
 
-bool Close(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(1.0, std::abs(b)); }
-
 std::string Number(double v) {
   char buffer[32];
   std::snprintf(buffer, sizeof(buffer), "%.10g", v);
@@ -198,32 +196,30 @@ void CheckMapCompatible(const MapData& data, const MapCamera& camera, const Voca
                     " words=" + std::to_string(here.num_words) + ")");
   }
   const MapCamera& m = data.camera;
-  const std::pair<const char*, std::pair<double, double>> fields[] = {
-      {"Camera.fx", {m.fx, camera.fx}},
-      {"Camera.fy", {m.fy, camera.fy}},
-      {"Camera.cx", {m.cx, camera.cx}},
-      {"Camera.cy", {m.cy, camera.cy}},
-      {"Camera.k1", {m.k1, camera.k1}},
-      {"Camera.k2", {m.k2, camera.k2}},
-      {"Camera.p1", {m.p1, camera.p1}},
-      {"Camera.p2", {m.p2, camera.p2}},
-      {"Camera.k3", {m.k3, camera.k3}},
-      {"image width", {double(m.width), double(camera.width)}},
-      {"image height", {double(m.height), double(camera.height)}},
-      {"Camera.bf", {m.bf, camera.bf}},
-      {"ThDepth", {m.th_depth, camera.th_depth}},
-      {"DepthMapFactor", {m.depth_map_factor, camera.depth_map_factor}},
-      {"ORBextractor.nFeatures", {double(m.orb_features), double(camera.orb_features)}},
-      {"ORBextractor.scaleFactor", {m.orb_scale_factor, camera.orb_scale_factor}},
-      {"ORBextractor.nLevels", {double(m.orb_levels), double(camera.orb_levels)}},
-      {"ORBextractor.iniThFAST", {double(m.orb_ini_th_fast), double(camera.orb_ini_th_fast)}},
-      {"ORBextractor.minThFAST", {double(m.orb_min_th_fast), double(camera.orb_min_th_fast)}},
+  const SettingPair fields[] = {
+      {"Camera.fx", m.fx, camera.fx},
+      {"Camera.fy", m.fy, camera.fy},
+      {"Camera.cx", m.cx, camera.cx},
+      {"Camera.cy", m.cy, camera.cy},
+      {"Camera.k1", m.k1, camera.k1},
+      {"Camera.k2", m.k2, camera.k2},
+      {"Camera.p1", m.p1, camera.p1},
+      {"Camera.p2", m.p2, camera.p2},
+      {"Camera.k3", m.k3, camera.k3},
+      {"image width", double(m.width), double(camera.width)},
+      {"image height", double(m.height), double(camera.height)},
+      {"Camera.bf", m.bf, camera.bf},
+      {"ThDepth", m.th_depth, camera.th_depth},
+      {"DepthMapFactor", m.depth_map_factor, camera.depth_map_factor},
+      {"ORBextractor.nFeatures", double(m.orb_features), double(camera.orb_features)},
+      {"ORBextractor.scaleFactor", m.orb_scale_factor, camera.orb_scale_factor},
+      {"ORBextractor.nLevels", double(m.orb_levels), double(camera.orb_levels)},
+      {"ORBextractor.iniThFAST", double(m.orb_ini_th_fast), double(camera.orb_ini_th_fast)},
+      {"ORBextractor.minThFAST", double(m.orb_min_th_fast), double(camera.orb_min_th_fast)},
   };
-  for (const auto& [key, values] : fields) {
-    if (!Close(values.first, values.second)) {
-      throw DataError(source + ": built with " + key + " = " + Number(values.first) +
-                      " but the settings give " + Number(values.second));
-    }
+  if (const SettingPair* d = FirstDifferentSetting(fields)) {
+    throw DataError(source + ": built with " + d->key + " = " + Number(d->recorded) +
+                    " but the settings give " + Number(d->given));
   }
 }
 
