@@ -148,6 +148,42 @@ Settings ParseSettings(const std::string& text, const std::string& name) {
   return s;
 }
 
+Viewpoint ReadViewpoint(const std::filesystem::path& path) {
+  const std::string name = path.string();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw NoInputError(name + (std::filesystem::is_directory(path, ec)
+                                   ? ": is a folder, not a settings file"
+                                   : ": no such settings file"));
+  }
+  const std::string text = ReadFileToString(path);
+  cv::FileStorage fs;
+  try {
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+  } catch (const cv::Exception&) {
+    throw DataError(name + ": not a valid settings YAML file");
+  }
+  if (text.empty() || !fs.isOpened()) throw DataError(name + ": not a valid settings YAML file");
+  Viewpoint v;
+  try {
+    for (const auto& [key, field] : {std::pair{"Viewer.ViewpointX", &v.x},
+                                     {"Viewer.ViewpointY", &v.y},
+                                     {"Viewer.ViewpointZ", &v.z},
+                                     {"Viewer.ViewpointF", &v.f}}) {
+      if (!ReadNumber(fs, key, name, field)) throw DataError(name + ": missing " + key);
+      if (!std::isfinite(*field)) throw DataError(name + ": " + key + " is not finite");
+    }
+  } catch (const cv::Exception&) {
+    throw DataError(name + ": malformed settings value");
+  }
+  if (!(v.f > 0))
+    throw DataError(name + ": Viewer.ViewpointF = " + Fmt("%g", v.f) + "; must be > 0");
+  if (v.x == 0 && v.y == 0 && v.z == 0) {
+    throw DataError(name + ": Viewer.ViewpointX/Y/Z is the origin, which the view looks at");
+  }
+  return v;
+}
+
 std::string FormatSettings(const Settings& s) {
   std::ostringstream out;
   auto num = [](double v) { return Fmt("%.9g", v); };

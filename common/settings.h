@@ -87,6 +87,23 @@ struct SettingPair {
 // 1e-9), or nullptr when all agree.
 const SettingPair* FirstDifferentSetting(std::span<const SettingPair> pairs);
 
+// The viewpoint of ORB-SLAM2's map viewer (its settings' Viewer.ViewpointX,
+// Y, Z and F): the eye at (x, y, z) metres in the map frame, looking at the
+// map's origin with "up" along -y (the first camera's up), with a focal
+// length of f pixels for a 1024 x 768 view (Pangolin's ProjectionMatrix and
+// ModelViewLookAt as ORB-SLAM2's Viewer.cc sets them). Defaults are
+// ORB-SLAM2's example values.
+struct Viewpoint {
+  double x = 0, y = -0.7, z = -1.8;  // Eye, metres, map frame.
+  double f = 500;                    // Focal length, pixels at 1024 x 768.
+};
+
+// Reads Viewer.ViewpointX, Y, Z and F from a settings file in the same
+// layout (other keys ignored, all four required; f > 0, the eye not at the
+// origin). Throws NoInputError when the file is missing, DataError naming
+// the file and the key otherwise.
+Viewpoint ReadViewpoint(const std::filesystem::path& path);
+
 // Formats settings in the same layout (deterministic text).
 std::string FormatSettings(const Settings& settings);
 

@@ -130,5 +130,39 @@ TEST(Settings, CheckNamesEachConstraint) {
   }
 }
 
+TEST(Viewpoint, ReadsOrbSlam2ViewerKeys) {
+  testing::TempDir dir;
+  testing::WriteTextFile(
+      dir / "v.yaml",
+      "%YAML:1.0\nCamera.fx: 500\nViewer.ViewpointX: 0.5\nViewer.ViewpointY: -0.7\n"
+      "Viewer.ViewpointZ: -1.8\nViewer.ViewpointF: 420\n");
+  const Viewpoint v = ReadViewpoint(dir / "v.yaml");
+  EXPECT_EQ(v.x, 0.5);
+  EXPECT_EQ(v.y, -0.7);
+  EXPECT_EQ(v.z, -1.8);
+  EXPECT_EQ(v.f, 420);
+  const auto message = [&](const std::string& text) {
+    testing::WriteTextFile(dir / "w.yaml", text);
+    try {
+      ReadViewpoint(dir / "w.yaml");
+    } catch (const DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message("%YAML:1.0\nViewer.ViewpointX: 0\n").find("missing Viewer.ViewpointY"),
+            std::string::npos);
+  EXPECT_NE(message("%YAML:1.0\nViewer.ViewpointX: 0\nViewer.ViewpointY: 0\nViewer.ViewpointZ: -1\n"
+                    "Viewer.ViewpointF: 0\n")
+                .find("Viewer.ViewpointF = 0; must be > 0"),
+            std::string::npos);
+  EXPECT_NE(message("%YAML:1.0\nViewer.ViewpointX: 0\nViewer.ViewpointY: 0\nViewer.ViewpointZ: 0\n"
+                    "Viewer.ViewpointF: 500\n")
+                .find("is the origin"),
+            std::string::npos);
+  EXPECT_THROW(ReadViewpoint(dir / "none.yaml"), NoInputError);
+  EXPECT_THROW(ReadViewpoint(dir.path()), NoInputError);
+}
+
 }  // namespace
 }  // namespace rrslam

@@ -521,6 +521,14 @@ TrackSummary RunTrack(const TrackOptions& options) {
     metadata["options"] = options.ToJson();
     metadata["settings"] = settings.source.string();
     metadata["frames"] = {{"first", frames.front()}, {"last", frames.back()}};
+    // What this run started from: keyframes and map points with smaller ids
+    // came from that map (render's --color age tells them apart).
+    if (!options.load_map.empty()) {
+      metadata["loaded_map"] = {{"file", options.load_map.string()},
+                                {"identity", loaded.identity},
+                                {"next_keyframe_id", loaded.next_keyframe_id},
+                                {"next_map_point_id", loaded.next_map_point_id}};
+    }
     const MapData data = ToMapData(map, camera, vocabulary, options.vocabulary.filename().string(),
                                    bow_levels_up, metadata.dump());
     ValidateMapData(data, options.save_map.string() + " (before saving)");
