@@ -87,38 +87,32 @@ ChartLayout MakeLayout(cv::Size size, bool footer) {
   return layout;
 }
 
-namespace {
-
-void SanitizeBounds(Eigen::Vector2d* lo, Eigen::Vector2d* hi) {
-  if (!(lo->x() <= hi->x()) || !(lo->y() <= hi->y())) *lo = *hi = Eigen::Vector2d::Zero();
-}
-
-}  // namespace
-
-Axes2d FitEqualScale(Eigen::Vector2d lo, Eigen::Vector2d hi, const cv::Rect& area, double padding,
-                     double min_span) {
-  SanitizeBounds(&lo, &hi);
-  const Eigen::Vector2d span = (hi - lo).cwiseMax(min_span);
-  Axes2d axes;
-  axes.centre_u = 0.5 * (lo.x() + hi.x());
-  axes.centre_v = 0.5 * (lo.y() + hi.y());
-  axes.pixels_per_u = axes.pixels_per_v =
-      std::min(area.width / (span.x() * padding), area.height / (span.y() * padding));
-  axes.centre_px = cv::Point2d(area.x + area.width / 2.0, area.y + area.height / 2.0);
-  return axes;
-}
-
-Axes2d FitEachAxis(Eigen::Vector2d lo, Eigen::Vector2d hi, const cv::Rect& area, double padding,
-                   double min_span) {
-  SanitizeBounds(&lo, &hi);
+Axes2d FitAxes(Eigen::Vector2d lo, Eigen::Vector2d hi, const cv::Rect& area, AxisScale scale,
+               double padding, double min_span) {
+  if (!(lo.x() <= hi.x()) || !(lo.y() <= hi.y())) lo = hi = Eigen::Vector2d::Zero();
   const Eigen::Vector2d span = (hi - lo).cwiseMax(min_span);
   Axes2d axes;
   axes.centre_u = 0.5 * (lo.x() + hi.x());
   axes.centre_v = 0.5 * (lo.y() + hi.y());
   axes.pixels_per_u = area.width / (span.x() * padding);
   axes.pixels_per_v = area.height / (span.y() * padding);
+  if (scale == AxisScale::kEqual) {
+    axes.pixels_per_u = axes.pixels_per_v = std::min(axes.pixels_per_u, axes.pixels_per_v);
+  }
   axes.centre_px = cv::Point2d(area.x + area.width / 2.0, area.y + area.height / 2.0);
   return axes;
+}
+
+bool CheckChartSize(int width_px, int height_px, const std::string& what, std::string* why) {
+  if (width_px < 320 || width_px > 8000) {
+    *why = what + " width = " + std::to_string(width_px) + " px; must be in [320, 8000]";
+    return false;
+  }
+  if (height_px < 240 || height_px > 8000) {
+    *why = what + " height = " + std::to_string(height_px) + " px; must be in [240, 8000]";
+    return false;
+  }
+  return true;
 }
 
 void DrawGrid(cv::Mat& image, const ChartLayout& layout, const Axes2d& axes) {

@@ -81,12 +81,16 @@ struct Axes2d {
 };
 
 // Fits data bounds [lo, hi] into `area` with `padding` (1.08 = 8% free),
-// centred. Equal scale on both axes (maps), or each axis its own (time
-// series). A span below `min_span` counts as min_span.
-Axes2d FitEqualScale(Eigen::Vector2d lo, Eigen::Vector2d hi, const cv::Rect& area,
-                     double padding = 1.08, double min_span = 1e-3);
-Axes2d FitEachAxis(Eigen::Vector2d lo, Eigen::Vector2d hi, const cv::Rect& area,
-                   double padding = 1.08, double min_span = 1e-3);
+// centred: with kEqual one scale for both axes (maps, metres), with kEach a
+// scale per axis (time series). A span below `min_span` counts as min_span.
+enum class AxisScale { kEqual, kEach };
+Axes2d FitAxes(Eigen::Vector2d lo, Eigen::Vector2d hi, const cv::Rect& area,
+               AxisScale scale = AxisScale::kEqual, double padding = 1.08, double min_span = 1e-3);
+
+// Image sizes every chart accepts: width in [320, 8000], height in [240,
+// 8000] pixels. False with "<what> width = N px; must be in [320, 8000]" in
+// `why` otherwise.
+bool CheckChartSize(int width_px, int height_px, const std::string& what, std::string* why);
 
 // Grid lines, ticks and tick labels at round values about 110 px apart,
 // clipped to the layout's area.

@@ -1,10 +1,17 @@
 // Image files: PNG (8-bit grey/colour, 16-bit grey) and JPEG, read and written
 // with libpng and libjpeg-turbo directly.
 //
-// Why not cv::imread/cv::imwrite: Debian's libopencv_imgcodecs links GDAL and
-// about 120 further libraries, which adds ~0.3 s to the start-up of every
-// process that links it; rrslam's stages and a robot's start-up should not pay
-// that. Colour images are BGR in memory (OpenCV's order). Thread-safe.
+// Why not OpenImageIO or cv::imread/cv::imwrite (measured by `make
+// bench-image-io`, bench/results/image-io-2026-12-02.txt): both give the same
+// pixels, but linking Debian's libOpenImageIO (262 libraries) adds about
+// 0.5-0.65 s to the start-up of every process, and libopencv_imgcodecs (GDAL
+// and 140 libraries) about 0.13-0.23 s, most of it the dynamic loader's
+// symbol lookups, which no loader setting avoids; OpenImageIO also decodes
+// JPEG about 20% slower (it delivers RGB only). rrslam's stages and a robot's
+// start-up should not pay that. The render stage, which starts once per
+// picture batch, writes its pictures through OpenImageIO
+// (stages/render/image_file.h). Colour images are BGR in memory (OpenCV's
+// order). Thread-safe.
 #pragma once
 
 #include <cstdint>

@@ -2,11 +2,16 @@
 # Renders a synthetic room sequence with exact ground truth (rrslam-synth),
 # trains a small vocabulary on it (pipelines/vocab.mk: extract -> cluster ->
 # vocab), tracks it (rrslam-track on the cached features) and evaluates the
-# trajectory against the ground truth (rrslam-eval ate, with a plot):
+# trajectory against the ground truth (rrslam-eval ate, with a plot) and
+# draws the saved map and the trajectory (rrslam-render):
 #   $(DEMO_DIR)/room/                       the sequence (TUM layout, settings.yaml)
 #   $(DEMO_DIR)/pipeline/room/features.h5   ORB features; tree.h5, voc.rrv, voc.txt
 #   $(DEMO_DIR)/track/                      CameraTrajectory.txt, KeyFrameTrajectory.txt, run.json
+#   $(DEMO_DIR)/map.rrm                     the saved map (rrslam.map)
 #   $(DEMO_DIR)/ate.txt, ate.png            absolute trajectory error and its plot
+#   $(DEMO_DIR)/render/map_*.png            the map from above and in perspective
+#   $(DEMO_DIR)/render/trajectory_*.png     trajectories against the ground truth, error over time
+#   $(DEMO_DIR)/render/view.html            the map in 3D in a browser (one offline file)
 # Every step is a file target: a second `make demo` redoes only what is stale.
 # Variables: DEMO_FRAMES (300), DEMO_TRAJECTORY (loop), DEMO_SEED (1).
 DEMO_DIR ?= $(BUILD_DIR)/demo
@@ -17,12 +22,19 @@ demo_seq := $(DEMO_DIR)/room
 demo_pipeline := $(DEMO_DIR)/pipeline/room
 
 .PHONY: demo demo-run
+demo_render := $(DEMO_DIR)/render
 demo: build
 	@$(MAKE) --no-print-directory demo-run
 	@echo "demo: outputs in $(DEMO_DIR)/ (trajectory in track/, error plot ate.png):"
 	@cat $(DEMO_DIR)/ate.txt
+	@echo "demo: pictures of the run:"
+	@echo "  map from above        $(demo_render)/map_top.png"
+	@echo "  map in perspective    $(demo_render)/map_perspective.png"
+	@echo "  trajectory vs. truth  $(demo_render)/trajectory_top.png (and _side, _front, _error)"
+	@echo "  3D viewer             $(demo_render)/view.html (open in a browser; works offline)"
 
-demo-run: $(DEMO_DIR)/ate.txt
+demo-run: $(DEMO_DIR)/ate.txt $(demo_render)/map_top.png $(demo_render)/trajectory_top.png \
+          $(demo_render)/view.html
 
 $(demo_seq)/groundtruth.txt: $(BIN)/rrslam-synth
 	@mkdir -p $(DEMO_DIR)
@@ -35,11 +47,23 @@ $(demo_pipeline)/features.h5 $(demo_pipeline)/voc.rrv &: $(demo_seq)/groundtruth
 	$(MAKE) --no-print-directory vocab DATASET=room DATA_ROOT=$(DEMO_DIR) \
 	  PIPELINE_ROOT=$(DEMO_DIR)/pipeline SKIP_BUILD=1 VOCAB_L=5
 
-$(DEMO_DIR)/track/run.json: $(demo_pipeline)/features.h5 $(demo_pipeline)/voc.rrv $(BIN)/rrslam-track
+$(DEMO_DIR)/track/run.json $(DEMO_DIR)/map.rrm &: $(demo_pipeline)/features.h5 $(demo_pipeline)/voc.rrv $(BIN)/rrslam-track
 	$(BIN)/rrslam-track --sequence $(demo_seq) --settings $(demo_seq)/settings.yaml \
-	  --vocab $(demo_pipeline)/voc.rrv --features $(demo_pipeline)/features.h5 --out $(@D)
+	  --vocab $(demo_pipeline)/voc.rrv --features $(demo_pipeline)/features.h5 --out $(DEMO_DIR)/track \
+	  --save-map $(DEMO_DIR)/map.rrm
 
 $(DEMO_DIR)/ate.txt: $(DEMO_DIR)/track/run.json $(BIN)/rrslam-eval
 	$(BIN)/rrslam-eval ate --gt $(demo_seq)/groundtruth.txt \
 	  --est $(DEMO_DIR)/track/CameraTrajectory.txt --plot $(DEMO_DIR)/ate.png \
 	  --plot-title "rrslam demo ($(DEMO_TRAJECTORY), $(DEMO_FRAMES) frames)" --out $@
+
+$(demo_render)/map_top.png: $(DEMO_DIR)/map.rrm $(BIN)/rrslam-render
+	$(BIN)/rrslam-render map --map $< --out $(@D) --view top --view perspective
+
+$(demo_render)/trajectory_top.png: $(DEMO_DIR)/track/run.json $(BIN)/rrslam-render
+	$(BIN)/rrslam-render trajectory --gt $(demo_seq)/groundtruth.txt \
+	  --est $(DEMO_DIR)/track/CameraTrajectory.txt --est $(DEMO_DIR)/track/KeyFrameTrajectory.txt \
+	  --title "rrslam demo" --out $(@D)
+
+$(demo_render)/view.html: $(DEMO_DIR)/map.rrm $(BIN)/rrslam-render
+	$(BIN)/rrslam-render html --map $< --gt $(demo_seq)/groundtruth.txt --out $@

@@ -6,11 +6,19 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake ccache pkg-config git
-  libopencv-dev libeigen3-dev libceres-dev libflann-dev libopenimageio-dev
+  libopencv-dev libopencv-contrib-dev libeigen3-dev libceres-dev libflann-dev libopenimageio-dev
   libhdf5-dev libcli11-dev libspdlog-dev libgtest-dev nlohmann-json3-dev
   libxxhash-dev libpng-dev libjpeg-dev
   clang libclang-rt-14-dev   # libFuzzer for `make fuzz` and the fuzz smoke tests
+  nodejs     # node and npm: bundle the render stage's browser viewer (three.js, esbuild)
+  chromium   # headless WebGL test of that viewer (render/html_viewer)
 )
+# Debian's nodejs comes without npm (a package of its own); a Node.js that
+# brings its own npm (NodeSource's, as on the project's machines) conflicts
+# with that package, so it is only asked for when there is no npm.
+if ! command -v npm >/dev/null; then
+  PACKAGES+=(npm)
+fi
 
 if [[ "${1:-}" == "--print" ]]; then
   printf '%s\n' "${PACKAGES[@]}"

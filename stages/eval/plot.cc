@@ -77,15 +77,7 @@ std::string ToString(PlotAxes axes) {
 }
 
 bool PlotOptions::Check(std::string* why) const {
-  if (width_px < 320 || width_px > 8000) {
-    *why = "plot width = " + std::to_string(width_px) + " px; must be in [320, 8000]";
-    return false;
-  }
-  if (height_px < 240 || height_px > 8000) {
-    *why = "plot height = " + std::to_string(height_px) + " px; must be in [240, 8000]";
-    return false;
-  }
-  return true;
+  return CheckChartSize(width_px, height_px, "plot", why);
 }
 
 nlohmann::ordered_json PlotOptions::ToJson() const {
@@ -149,7 +141,7 @@ cv::Mat RenderAtePlot(const Trajectory& gt_input, const AteResult& result,
     extend(pair.gt_position);
     extend(pair.est_position_aligned);
   }
-  const Axes2d projection = FitEqualScale(lo, hi, area);
+  const Axes2d projection = FitAxes(lo, hi, area);
   DrawGrid(image, layout, projection);
 
   // Data, clipped to the plot area: differences under the trajectories.
