@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
+#include <iostream>
 #include <opencv2/core/utility.hpp>
 
 #include "common/errors.h"
@@ -38,6 +39,16 @@ int RunTool(int argc, char** argv, const ToolInfo& info,
   app.set_version_flag("--version", std::string(name) + " " + kVersion);
   try {
     add_options(app);
+    // The common flags are accepted after a subcommand too
+    // (`rrslam-vocab build ... --quiet`): options a subcommand does not
+    // know fall through to the tool.
+    std::function<void(CLI::App*)> fall_through = [&](CLI::App* parent) {
+      for (CLI::App* sub : parent->get_subcommands([](CLI::App*) { return true; })) {
+        sub->fallthrough();
+        fall_through(sub);
+      }
+    };
+    fall_through(&app);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
@@ -56,6 +67,13 @@ int RunTool(int argc, char** argv, const ToolInfo& info,
   cv::redirectError([](int, const char*, const char*, const char*, int, void*) { return 0; });
   try {
     run();
+    // Results printed on stdout must have reached it (`> /dev/full`, a
+    // closed pipe's buffer): a run whose output was lost is not a success.
+    std::cout.flush();
+    if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout)) {
+      std::fprintf(stderr, "%s: error: cannot write to standard output\n", name.c_str());
+      return static_cast<int>(ExitCode::kCantCreate);
+    }
     return 0;
   } catch (const Error& e) {
     std::fprintf(stderr, "%s: error: %s\n", name.c_str(), e.what());

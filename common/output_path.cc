@@ -64,4 +64,20 @@ bool CheckOutputNotInput(const NamedPath& output, const std::vector<NamedPath>& 
   return true;
 }
 
+bool CheckOutputs(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs,
+                  std::string* why) {
+  for (size_t k = 0; k < outputs.size(); ++k) {
+    if (!CheckOutputNotInput(outputs[k], inputs, why)) return false;
+    for (size_t l = k + 1; l < outputs.size(); ++l) {
+      if (outputs[k].second.empty() || outputs[l].second.empty()) continue;
+      if (Canonical(outputs[k].second) == Canonical(outputs[l].second)) {
+        *why = outputs[k].first + " and " + outputs[l].first + " name the same file " +
+               outputs[k].second.string();
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
 }  // namespace rrslam

@@ -24,4 +24,9 @@ using NamedPath = std::pair<std::string, std::filesystem::path>;
 bool CheckOutputNotInput(const NamedPath& output, const std::vector<NamedPath>& inputs,
                          std::string* why);
 
+// The rule for every output of a run, and no two outputs naming the same
+// file ("<flag> and <flag> name the same file <path>").
+bool CheckOutputs(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs,
+                  std::string* why);
+
 }  // namespace rrslam

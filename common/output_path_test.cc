@@ -39,5 +39,20 @@ TEST(OutputPath, RefusesAnOutputThatIsContainsOrLiesInsideAnInput) {
   EXPECT_NE(why.find("contains the --map input"), std::string::npos);
 }
 
+TEST(OutputPath, OutputsDifferFromEachOther) {
+  testing::TempDir dir;
+  testing::WriteTextFile(dir / "in.txt", "x");
+  std::string why;
+  EXPECT_TRUE(CheckOutputs({{"--out", dir / "a"}, {"--plot", dir / "b.png"}, {"--x", {}}},
+                           {{"--est", dir / "in.txt"}}, &why))
+      << why;
+  EXPECT_FALSE(CheckOutputs({{"--out", dir / "a"}, {"--plot", dir / "." / "a"}}, {}, &why));
+  EXPECT_EQ(why, "--out and --plot name the same file " + (dir / "a").string());
+  EXPECT_FALSE(CheckOutputs({{"--out", dir / "a"}, {"--plot", dir / "in.txt"}},
+                            {{"--est", dir / "in.txt"}}, &why));
+  EXPECT_NE(why.find("--plot " + (dir / "in.txt").string() + " is the --est input"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace rrslam

@@ -231,7 +231,8 @@ TEST_F(MapPipelineTest, BadMapsAreRefused) {
 
   r = Track(path("bad2"), "--load-map " + Quote(path("missing.rrm")));
   EXPECT_EQ(r.exit_code, 66) << r.output;
-  r = Track(path("bad3"), "--load-map " + Quote(dir_->path()));
+  fs::create_directories(path("folder.rrm"));  // A folder, not a map file.
+  r = Track(path("bad3"), "--load-map " + Quote(path("folder.rrm")));
   EXPECT_EQ(r.exit_code, 66) << r.output;
   r = Track(path("bad4"), "--localization-only");
   EXPECT_EQ(r.exit_code, 64) << r.output;

@@ -8,6 +8,7 @@
 
 #include "common/cli.h"
 #include "common/errors.h"
+#include "common/output_path.h"
 #include "common/progress.h"
 #include "stages/cluster/hkmeans.h"
 #include "stages/extract/features_file.h"
@@ -21,6 +22,10 @@ bool ClusterOptions::Check(std::string* why) const {
   };
   if (features.empty()) return fail("features: at least one features file is required");
   if (out.empty()) return fail("out: an output tree file is required");
+  std::vector<NamedPath> inputs;
+  for (const auto& f : features) inputs.push_back({"--features", f});
+  std::string clash;
+  if (!CheckOutputNotInput({"--out", out}, inputs, &clash)) return fail(clash);
   if (k < 2 || k > 20) return fail("k = " + std::to_string(k) + "; must be in [2, 20]");
   if (levels < 1 || levels > 10) {
     return fail("levels = " + std::to_string(levels) + "; must be in [1, 10]");

@@ -13,6 +13,7 @@
 #include "common/cli.h"
 #include "common/errors.h"
 #include "common/image_io.h"
+#include "common/output_path.h"
 #include "common/trajectory.h"
 
 namespace rrslam {
@@ -22,36 +23,6 @@ namespace {
 constexpr const char* kStage = "eval";
 
 // The same file, as far as can be told before it exists.
-bool SamePath(const fs::path& a, const fs::path& b) {
-  std::error_code ec;
-  const fs::path ca = fs::weakly_canonical(fs::absolute(a), ec);
-  const fs::path cb = fs::weakly_canonical(fs::absolute(b), ec);
-  return ca == cb;
-}
-
-// Outputs must differ from the inputs and from each other.
-bool CheckOutputs(const std::vector<std::pair<std::string, fs::path>>& inputs,
-                  const std::vector<std::pair<std::string, fs::path>>& outputs, std::string* why) {
-  for (size_t k = 0; k < outputs.size(); ++k) {
-    if (outputs[k].second.empty()) continue;
-    for (const auto& [name, path] : inputs) {
-      if (SamePath(outputs[k].second, path)) {
-        *why = outputs[k].first + " " + outputs[k].second.string() + " is the " + name +
-               " input; it would be overwritten";
-        return false;
-      }
-    }
-    for (size_t l = k + 1; l < outputs.size(); ++l) {
-      if (!outputs[l].second.empty() && SamePath(outputs[k].second, outputs[l].second)) {
-        *why = outputs[k].first + " and " + outputs[l].first + " name the same file " +
-               outputs[k].second.string();
-        return false;
-      }
-    }
-  }
-  return true;
-}
-
 Trajectory ReadTrajectory(const fs::path& path, const char* what) {
   Trajectory trajectory = ReadTumTrajectory(path);
   spdlog::info("{}: {} poses from {}", what, trajectory.size(), path.string());
@@ -143,15 +114,13 @@ bool EvalAteOptions::Check(std::string* why) const {
     *why = "plot " + plot_path.string() + " must be a .png file";
     return false;
   }
-  std::vector<std::pair<std::string, fs::path>> inputs = {{"ground-truth", gt_path},
-                                                          {"estimate", est_path}};
+  std::vector<NamedPath> inputs = {{"ground-truth", gt_path}, {"estimate", est_path}};
   if (!align_with_path.empty()) inputs.emplace_back("--align-with", align_with_path);
-  return CheckOutputs(inputs,
-                      {{"--out", report_path},
+  return CheckOutputs({{"--out", report_path},
                        {"--plot", plot_path},
                        {"--save-associations", associations_path},
                        {"--save-aligned", aligned_path}},
-                      why);
+                      inputs, why);
 }
 
 nlohmann::ordered_json EvalAteOptions::ToJson() const {
@@ -179,8 +148,8 @@ bool EvalRpeOptions::Check(std::string* why) const {
     return false;
   }
   if (!rpe.Check(why)) return false;
-  return CheckOutputs({{"ground-truth", gt_path}, {"estimate", est_path}},
-                      {{"--out", report_path}, {"--save-pairs", pairs_path}}, why);
+  return CheckOutputs({{"--out", report_path}, {"--save-pairs", pairs_path}},
+                      {{"ground-truth", gt_path}, {"estimate", est_path}}, why);
 }
 
 nlohmann::ordered_json EvalRpeOptions::ToJson() const {

@@ -8,6 +8,7 @@
 #include "common/atomic_file.h"
 #include "common/cli.h"
 #include "common/errors.h"
+#include "common/output_path.h"
 #include "common/text.h"
 
 namespace rrslam {
@@ -334,7 +335,9 @@ bool EvalSummaryOptions::Check(std::string* why) const {
         "--reference-name '" + reference_name + "'; must be non-empty, without '|' or line breaks";
     return false;
   }
-  return true;
+  std::vector<NamedPath> inputs = {{"--reference", reference}};
+  for (const auto& dir : run_dirs) inputs.push_back({"run folder", dir});
+  return CheckOutputNotInput({"--out", out}, inputs, why);
 }
 
 void RunEvalSummary(const EvalSummaryOptions& options, std::ostream& out) {

@@ -11,6 +11,7 @@
 #include "common/atomic_file.h"
 #include "common/cli.h"
 #include "common/errors.h"
+#include "common/output_path.h"
 #include "stages/extract/orb_extractor.h"
 
 namespace rrslam {
@@ -24,6 +25,13 @@ bool ExtractOptions::Check(std::string* why) const {
   if (sequence.empty()) return fail("--sequence is empty; a sequence folder is required");
   if (settings.empty()) return fail("--settings is empty; a settings YAML file is required");
   if (out.empty()) return fail("--out is empty; an output file path is required");
+  std::string clash;
+  if (!CheckOutputNotInput(
+          {"--out", out},
+          {{"--sequence", sequence}, {"--settings", settings}, {"--associations", associations}},
+          &clash)) {
+    return fail(clash);
+  }
   if (stride < 1) return fail("--stride = " + std::to_string(stride) + "; must be >= 1");
   if (first < 0) return fail("--first = " + std::to_string(first) + "; must be >= 0");
   if (max_frames < 0) {

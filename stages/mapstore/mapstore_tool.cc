@@ -12,6 +12,7 @@
 #include "common/binary_header.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/output_path.h"
 #include "stages/mapstore/map_diff.h"
 #include "stages/mapstore/map_file.h"
 
@@ -94,7 +95,7 @@ bool MapDiffOptions::Check(std::string* why) const {
   if (!(radius > 0) || !std::isfinite(radius)) {
     return Fail(why, "radius = " + std::to_string(radius) + "; must be a positive distance (m)");
   }
-  return true;
+  return CheckOutputNotInput({"--json", json_out}, {{"a", a}, {"b", b}}, why);
 }
 
 // ---------------------------------------------------------------------------

@@ -21,6 +21,7 @@
 #include "common/clock.h"
 #include "common/dataset.h"
 #include "common/errors.h"
+#include "common/output_path.h"
 #include "common/progress.h"
 #include "common/settings.h"
 #include "common/text.h"
@@ -215,6 +216,27 @@ bool TrackOptions::Check(std::string* why) const {
   if (settings.empty()) return fail("--settings is empty; a settings YAML file is required");
   if (vocabulary.empty()) return fail("--vocab is empty; a vocabulary file is required");
   if (out.empty()) return fail("--out is empty; an output folder is required");
+  // No output may replace, contain or lie inside what the run reads (--out
+  // is a folder that is replaced as a whole). --save-map may name the
+  // --load-map file: the map is read at start and replaced atomically by the
+  // complete new one at the end (updating a robot's map in place).
+  std::string clash;
+  const std::vector<NamedPath> inputs = {{"--sequence", sequence},
+                                         {"--settings", settings},
+                                         {"--vocab", vocabulary},
+                                         {"--features", features},
+                                         {"--associations", associations}};
+  std::vector<NamedPath> inputs_and_map = inputs;
+  inputs_and_map.push_back({"--load-map", load_map});
+  if (!CheckOutputNotInput({"--out", out}, inputs_and_map, &clash) ||
+      !CheckOutputNotInput({"--save-map", save_map}, inputs, &clash)) {
+    return fail(clash);
+  }
+  if (!save_map.empty() &&
+      !CheckOutputNotInput({"--save-map", save_map}, {{"--out", out}}, &clash)) {
+    return fail("--save-map " + save_map.string() + " lies inside --out " + out.string() +
+                ", which is replaced as a whole; save the map beside it");
+  }
   if (mode != "batch" && mode != "realtime") {
     return fail("--mode = " + mode + "; must be batch or realtime");
   }

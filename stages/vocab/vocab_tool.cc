@@ -14,6 +14,7 @@
 #include "common/cli.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/output_path.h"
 #include "common/progress.h"
 #include "common/text.h"
 #include "stages/cluster/vocab_tree.h"
@@ -75,6 +76,9 @@ bool VocabBuildOptions::Check(std::string* why) const {
   if (KindByExtension(out) == FileKind::kUnknown) {
     return Fail(why, "out = " + out.string() + "; must end in .rrv (binary) or .txt (DBoW2 text)");
   }
+  std::vector<NamedPath> inputs = {{"--tree", tree}};
+  for (const auto& f : features) inputs.push_back({"--features", f});
+  if (!CheckOutputNotInput({"--out", out}, inputs, why)) return false;
   if (!ParseWeighting(weighting, &w)) {
     return Fail(why, "weighting = " + weighting + "; must be tf-idf, tf, idf or binary");
   }
@@ -101,7 +105,7 @@ bool VocabConvertOptions::Check(std::string* why) const {
   if (KindByExtension(out) == FileKind::kUnknown) {
     return Fail(why, "out = " + out.string() + "; must end in .rrv (binary) or .txt (DBoW2 text)");
   }
-  return true;
+  return CheckOutputNotInput({"out", out}, {{"in", in}}, why);
 }
 
 bool VocabInfoOptions::Check(std::string* why) const {
@@ -119,7 +123,7 @@ bool VocabQueryOptions::Check(std::string* why) const {
   if (levels_up < 0) {
     return Fail(why, "levels_up = " + std::to_string(levels_up) + "; must be >= 0");
   }
-  return true;
+  return CheckOutputNotInput({"--out", out}, {{"--vocab", vocab}, {"--features", features}}, why);
 }
 
 // ---------------------------------------------------------------------------
