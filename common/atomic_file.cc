@@ -51,8 +51,9 @@ AtomicOutput::AtomicOutput(fs::path final_path, Kind kind)
   const fs::path parent = ParentOf(final_path_);
   std::error_code ec;
   if (!fs::is_directory(parent, ec)) {
-    throw CantCreateError(final_path_.string() + ": output folder " + parent.string() +
-                          " does not exist");
+    throw CantCreateError(
+        final_path_.string() + ": output folder " + parent.string() +
+        (fs::exists(parent, ec) ? " is a file, not a folder" : " does not exist"));
   }
   if (::access(parent.c_str(), W_OK) != 0) {
     throw CantCreateError(final_path_.string() + ": output folder " + parent.string() +
@@ -60,6 +61,14 @@ AtomicOutput::AtomicOutput(fs::path final_path, Kind kind)
   }
   if (kind_ == Kind::kFile && fs::is_directory(final_path_, ec)) {
     throw CantCreateError(final_path_.string() + ": is a folder, expected a file path");
+  }
+  // A device, FIFO or socket (--out /dev/null) would be replaced by a
+  // regular file by the final rename: refused.
+  if (kind_ == Kind::kFile && fs::exists(final_path_, ec) &&
+      !fs::is_regular_file(final_path_, ec) && !fs::is_directory(final_path_, ec)) {
+    throw CantCreateError(final_path_.string() +
+                          ": is not a regular file (a device, FIFO or socket); outputs are "
+                          "written as regular files and replaced atomically");
   }
   if (kind_ == Kind::kDirectory && fs::exists(final_path_, ec) &&
       !fs::is_directory(final_path_, ec)) {
@@ -88,8 +97,8 @@ void AtomicOutput::Commit() {
   if (kind_ == Kind::kFile) {
     FsyncPath(temp_path_, false);
     if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
-      throw CantCreateError(final_path_.string() + ": cannot rename from " +
-                            temp_path_.string() + ": " + ErrnoText());
+      throw CantCreateError(final_path_.string() + ": cannot rename from " + temp_path_.string() +
+                            ": " + ErrnoText());
     }
   } else {
     FsyncTree(temp_path_);
@@ -100,15 +109,15 @@ void AtomicOutput::Commit() {
     if (had_old) {
       fs::remove_all(old_path, ec);
       if (::rename(final_path_.c_str(), old_path.c_str()) != 0) {
-        throw CantCreateError(final_path_.string() + ": cannot move the old folder aside: " +
-                              ErrnoText());
+        throw CantCreateError(final_path_.string() +
+                              ": cannot move the old folder aside: " + ErrnoText());
       }
     }
     if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
       const std::string why = ErrnoText();
       if (had_old) ::rename(old_path.c_str(), final_path_.c_str());
-      throw CantCreateError(final_path_.string() + ": cannot rename from " +
-                            temp_path_.string() + ": " + why);
+      throw CantCreateError(final_path_.string() + ": cannot rename from " + temp_path_.string() +
+                            ": " + why);
     }
     if (had_old) fs::remove_all(old_path, ec);
   }
@@ -130,7 +139,8 @@ void WriteFileAtomically(const fs::path& path, std::string_view content) {
 
 std::string ReadFileToString(const fs::path& path) {
   std::error_code ec;
-  if (fs::is_directory(path, ec)) throw NoInputError(path.string() + ": is a folder, expected a file");
+  if (fs::is_directory(path, ec))
+    throw NoInputError(path.string() + ": is a folder, expected a file");
   std::ifstream stream(path, std::ios::binary);
   if (!stream) throw NoInputError(path.string() + ": cannot open: " + ErrnoText());
   std::ostringstream buffer;

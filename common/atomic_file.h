@@ -16,9 +16,11 @@ namespace rrslam {
 // any means (ofstream, HDF5, EncodePng), then calls Commit(). If Commit() is
 // never called, the destructor removes the temporary file or folder.
 //
-// Throws CantCreateError when the parent folder does not exist or is not
-// writable, or when the final path names an existing folder (for a file) or an
-// existing file (for a folder).
+// Throws CantCreateError when the parent folder does not exist (or is a
+// file) or is not writable, when the final path names an existing folder
+// (for a file) or an existing file (for a folder), or when it names a
+// device, FIFO or socket (`--out /dev/null`): such a path would be replaced
+// by a regular file, so it is refused.
 class AtomicOutput {
  public:
   enum class Kind { kFile, kDirectory };

@@ -74,6 +74,26 @@ TEST(AtomicFile, UncommittedDirectoryIsRemoved) {
   EXPECT_FALSE(fs::exists(dir / "out.tmp"));
 }
 
+TEST(AtomicFile, RefusesDevicesFifosAndFileParents) {
+  testing::TempDir dir;
+  const auto message = [](const fs::path& path) {
+    try {
+      AtomicOutput out(path);
+    } catch (const CantCreateError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message("/dev/null").find("/dev/null: is not a regular file"), std::string::npos);
+  ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0600), 0);
+  EXPECT_NE(message(dir / "fifo").find("is not a regular file"), std::string::npos);
+  EXPECT_TRUE(fs::is_fifo(dir / "fifo"));  // Untouched.
+  testing::WriteTextFile(dir / "afile", "x");
+  EXPECT_NE(message(dir / "afile" / "trk").find("afile is a file, not a folder"),
+            std::string::npos);
+  EXPECT_NE(message(dir / "none" / "trk").find("none does not exist"), std::string::npos);
+}
+
 TEST(AtomicFile, ReadMissingFileIsNoInput) {
   testing::TempDir dir;
   EXPECT_THROW(ReadFileToString(dir / "absent"), NoInputError);

@@ -1,14 +1,13 @@
 #include "common/camera.h"
 
-#include <algorithm>
 #include <Eigen/LU>
+#include <algorithm>
 
 namespace rrslam {
 
 PinholeCamera::PinholeCamera(double fx, double fy, double cx, double cy, int width, int height,
                              const Distortion& distortion)
-    : fx_(fx), fy_(fy), cx_(cx), cy_(cy), width_(width), height_(height),
-      distortion_(distortion) {}
+    : fx_(fx), fy_(fy), cx_(cx), cy_(cy), width_(width), height_(height), distortion_(distortion) {}
 
 Eigen::Matrix3d PinholeCamera::K() const {
   Eigen::Matrix3d k;
@@ -55,8 +54,7 @@ Eigen::Vector2d PinholeCamera::UndistortPixel(const Eigen::Vector2d& pixel) cons
 
 Eigen::Vector2d PinholeCamera::DistortPixel(const Eigen::Vector2d& ideal_pixel) const {
   if (distortion_.IsZero()) return ideal_pixel;
-  const Eigen::Vector2d n =
-      Distort({(ideal_pixel.x() - cx_) / fx_, (ideal_pixel.y() - cy_) / fy_});
+  const Eigen::Vector2d n = Distort({(ideal_pixel.x() - cx_) / fx_, (ideal_pixel.y() - cy_) / fy_});
   return {fx_ * n.x() + cx_, fy_ * n.y() + cy_};
 }
 

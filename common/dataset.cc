@@ -133,10 +133,12 @@ RgbdSequence RgbdSequence::Open(const fs::path& dir, const SequenceOptions& opti
     }
   }
   for (const RgbdFrameRef& f : seq.frames_) {
-    if (!fs::is_regular_file(f.rgb_path, ec))
-      throw DataError(f.rgb_path.string() + ": listed image does not exist");
-    if (!fs::is_regular_file(f.depth_path, ec))
-      throw DataError(f.depth_path.string() + ": listed image does not exist");
+    for (const fs::path& image : {f.rgb_path, f.depth_path}) {
+      if (fs::is_regular_file(image, ec)) continue;
+      throw DataError(image.string() + (fs::is_directory(image, ec)
+                                            ? ": listed image is a folder, not an image file"
+                                            : ": listed image does not exist"));
+    }
   }
   const fs::path gt = dir / "groundtruth.txt";
   if (fs::is_regular_file(gt, ec)) seq.groundtruth_ = ReadTumTrajectory(gt);

@@ -133,6 +133,17 @@ TEST_F(BadSequence, MalformedListLine) {
   EXPECT_THROW(RgbdSequence::Open(seq()), DataError);
 }
 
+TEST_F(BadSequence, ListNamesAFolder) {
+  testing::WriteTextFile(seq() / "rgb.txt", "1.0 rgb\n");
+  try {
+    RgbdSequence::Open(seq());
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("listed image is a folder"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST_F(BadSequence, ListNamesAbsentImage) {
   testing::WriteTextFile(seq() / "rgb.txt", "1.0 rgb/missing.png\n");
   try {

@@ -15,12 +15,12 @@ namespace rrslam {
 // Process exit codes of every rrslam executable (sysexits.h values).
 enum class ExitCode : int {
   kOk = 0,
-  kUsage = 64,         // Bad command line: unknown flag, invalid option value.
-  kDataError = 65,     // Input exists but is malformed, inconsistent or unsupported.
-  kNoInput = 66,       // An input file or folder is missing or unreadable.
-  kSoftware = 70,      // Internal error (a bug): please report it.
-  kCantCreate = 73,    // An output file cannot be created or written.
-  kTempFail = 75,      // The algorithm failed on this input (e.g. tracking lost everywhere).
+  kUsage = 64,       // Bad command line: unknown flag, invalid option value.
+  kDataError = 65,   // Input exists but is malformed, inconsistent or unsupported.
+  kNoInput = 66,     // An input file or folder is missing or unreadable.
+  kSoftware = 70,    // Internal error (a bug): please report it.
+  kCantCreate = 73,  // An output file cannot be created or written.
+  kTempFail = 75,    // The algorithm failed on this input (e.g. tracking lost everywhere).
 };
 
 // Text for --help footers: the table of exit codes above.
@@ -29,8 +29,7 @@ const char* ExitCodeHelp();
 // Base of all rrslam errors. what() is the one-line message shown to the user.
 class Error : public std::runtime_error {
  public:
-  Error(ExitCode code, const std::string& message)
-      : std::runtime_error(message), code_(code) {}
+  Error(ExitCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
   ExitCode code() const { return code_; }
 
  private:

@@ -68,10 +68,9 @@ void ProgressBar::Draw(bool final_draw) {
     std::string bar(filled, '#');
     bar.append(kWidth - filled, '.');
     const double eta = rate > 0 ? (total_ - std::min(done, total_)) / rate : -1;
-    std::snprintf(line, sizeof(line), "\r%s [%s] %zu/%zu %5.1f%% %.1f %s/s %s %s",
-                  label_.c_str(), bar.c_str(), done, total_, 100.0 * fraction, rate,
-                  unit_.c_str(), final_draw ? "in" : "ETA",
-                  FormatDuration(final_draw ? elapsed : eta).c_str());
+    std::snprintf(line, sizeof(line), "\r%s [%s] %zu/%zu %5.1f%% %.1f %s/s %s %s", label_.c_str(),
+                  bar.c_str(), done, total_, 100.0 * fraction, rate, unit_.c_str(),
+                  final_draw ? "in" : "ETA", FormatDuration(final_draw ? elapsed : eta).c_str());
   } else {
     std::snprintf(line, sizeof(line), "\r%s %zu %s %.1f %s/s %s", label_.c_str(), done,
                   unit_.c_str(), rate, unit_.c_str(), FormatDuration(elapsed).c_str());

@@ -94,8 +94,11 @@ bool Settings::Check(std::string* why) const {
 Settings ReadSettings(const std::filesystem::path& path) {
   const std::string name = path.string();
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    throw NoInputError(name + ": no such settings file");
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw NoInputError(name + (std::filesystem::is_directory(path, ec)
+                                   ? ": is a folder, not a settings file"
+                                   : ": no such settings file"));
+  }
   Settings s = ParseSettings(ReadFileToString(path), name);
   s.source = path;
   return s;

@@ -161,6 +161,12 @@ TEST(Viewpoint, ReadsOrbSlam2ViewerKeys) {
                 .find("is the origin"),
             std::string::npos);
   EXPECT_THROW(ReadViewpoint(dir / "none.yaml"), NoInputError);
+  try {
+    ReadSettings(dir.path());
+    ADD_FAILURE() << "a folder was read as settings";
+  } catch (const NoInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("is a folder, not a settings file"), std::string::npos);
+  }
   EXPECT_THROW(ReadViewpoint(dir.path()), NoInputError);
 }
 

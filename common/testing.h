@@ -45,7 +45,7 @@ void WriteTextFile(const std::filesystem::path& path, const std::string& content
 }  // namespace rrslam::testing
 
 // Skips the current test when the shared data is absent; defines `data_dir`.
-#define RRSLAM_REQUIRE_SHARED_DATA(data_dir)                                         \
-  const auto data_dir##_opt = ::rrslam::testing::SharedDataDir();                    \
+#define RRSLAM_REQUIRE_SHARED_DATA(data_dir)                                          \
+  const auto data_dir##_opt = ::rrslam::testing::SharedDataDir();                     \
   if (!data_dir##_opt) GTEST_SKIP() << "shared data not found (set RRSLAM_DATA_DIR)"; \
   const std::filesystem::path data_dir = *data_dir##_opt

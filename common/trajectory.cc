@@ -42,8 +42,8 @@ std::string FormatTumTrajectory(const Trajectory& trajectory) {
   for (const StampedPose& pose : trajectory) {
     const Eigen::Quaterniond& q = pose.T_world_cam.rotation;
     const Eigen::Vector3d& t = pose.T_world_cam.translation;
-    std::snprintf(line, sizeof(line), "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n",
-                  pose.timestamp, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    std::snprintf(line, sizeof(line), "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", pose.timestamp,
+                  t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
     out += line;
   }
   return out;

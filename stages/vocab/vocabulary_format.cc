@@ -765,8 +765,11 @@ VocabularyData ParseTextVocabulary(std::string_view text, const std::string& sou
   const char* header_end = nl != nullptr ? nl : end;
   Cursor h{data, header_end};
   uint64_t k = 0, levels = 0, scoring = 0, weighting = 0;
-  if (!h.Uint(1000, &k) || !h.Uint(1000, &levels) || !h.Uint(1000, &scoring) ||
-      !h.Uint(1000, &weighting) || !h.AtEnd()) {
+  // Any unsigned number parses here, so that a large one gets the range
+  // message below (k = 1000000 as k = 0), not "not a header".
+  constexpr uint64_t kAnyUint32 = 0xffffffffu;
+  if (!h.Uint(kAnyUint32, &k) || !h.Uint(kAnyUint32, &levels) || !h.Uint(kAnyUint32, &scoring) ||
+      !h.Uint(kAnyUint32, &weighting) || !h.AtEnd()) {
     throw DataError(source + ": not a vocabulary: no " + std::string(kVocabularyFormat.magic, 8) +
                     " magic, and line 1 is not a DBoW2 text header 'k L scoring weighting'");
   }

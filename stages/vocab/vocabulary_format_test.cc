@@ -104,6 +104,9 @@ TEST(TextVocabulary, RejectsMalformedFilesWithLineNumbers) {
   ExpectTextError("2 11 0 0\n" + Line("0", "1", "1"), "out of DBoW2's ranges");
   ExpectTextError("2 2 6 0\n" + Line("0", "1", "1"), "out of DBoW2's ranges");
   ExpectTextError("2 2 0 4\n" + Line("0", "1", "1"), "out of DBoW2's ranges");
+  // A large number gets the range message too, not "not a header".
+  ExpectTextError("1000000 6 0 0\n" + Line("0", "1", "1"), "k = 1000000, L = 6");
+  ExpectTextError("0 6 0 0\n" + Line("0", "1", "1"), "k = 0, L = 6");
   ExpectTextError(header, "no node besides the root");
   ExpectTextError(header + "\n\n", "no node besides the root");
   ExpectTextError(header + Line("0", "1", "1") + "\n" + Line("0", "1", "2"), "line 3: empty line");
