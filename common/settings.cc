@@ -35,6 +35,30 @@ bool ReadInt(const cv::FileStorage& fs, const std::string& key, const std::strin
   return true;
 }
 
+// A settings file's text; NoInputError when it is missing or a folder.
+std::string ReadSettingsText(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw NoInputError(path.string() + (std::filesystem::is_directory(path, ec)
+                                            ? ": is a folder, not a settings file"
+                                            : ": no such settings file"));
+  }
+  return ReadFileToString(path);
+}
+
+// Settings text as OpenCV YAML; DataError naming `name` when it is not.
+cv::FileStorage OpenSettingsYaml(const std::string& text, const std::string& name) {
+  if (text.empty()) throw DataError(name + ": empty settings file");
+  cv::FileStorage fs;
+  try {
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+  } catch (const cv::Exception&) {
+    throw DataError(name + ": not a valid settings YAML file");
+  }
+  if (!fs.isOpened()) throw DataError(name + ": not a valid settings YAML file");
+  return fs;
+}
+
 std::string Fmt(const char* format, double value) {
   char buffer[64];
   std::snprintf(buffer, sizeof(buffer), format, value);
@@ -92,28 +116,13 @@ bool Settings::Check(std::string* why) const {
 }
 
 Settings ReadSettings(const std::filesystem::path& path) {
-  const std::string name = path.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw NoInputError(name + (std::filesystem::is_directory(path, ec)
-                                   ? ": is a folder, not a settings file"
-                                   : ": no such settings file"));
-  }
-  Settings s = ParseSettings(ReadFileToString(path), name);
+  Settings s = ParseSettings(ReadSettingsText(path), path.string());
   s.source = path;
   return s;
 }
 
 Settings ParseSettings(const std::string& text, const std::string& name) {
-  if (text.empty()) throw DataError(name + ": empty settings file");
-  cv::FileStorage fs;
-  try {
-    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-  } catch (const cv::Exception&) {
-    throw DataError(name + ": not a valid settings YAML file");
-  }
-  if (!fs.isOpened()) throw DataError(name + ": not a valid settings YAML file");
-
+  const cv::FileStorage fs = OpenSettingsYaml(text, name);
   Settings s;
   try {
     for (const auto& [key, field] : {std::pair{"Camera.fx", &s.fx},
@@ -153,20 +162,7 @@ Settings ParseSettings(const std::string& text, const std::string& name) {
 
 Viewpoint ReadViewpoint(const std::filesystem::path& path) {
   const std::string name = path.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw NoInputError(name + (std::filesystem::is_directory(path, ec)
-                                   ? ": is a folder, not a settings file"
-                                   : ": no such settings file"));
-  }
-  const std::string text = ReadFileToString(path);
-  cv::FileStorage fs;
-  try {
-    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-  } catch (const cv::Exception&) {
-    throw DataError(name + ": not a valid settings YAML file");
-  }
-  if (text.empty() || !fs.isOpened()) throw DataError(name + ": not a valid settings YAML file");
+  const cv::FileStorage fs = OpenSettingsYaml(ReadSettingsText(path), name);
   Viewpoint v;
   try {
     for (const auto& [key, field] : {std::pair{"Viewer.ViewpointX", &v.x},

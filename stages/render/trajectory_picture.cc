@@ -192,6 +192,7 @@ cv::Mat RenderErrorOverTime(const std::vector<Drawn>& estimates, double t0,
   std::vector<LegendEntry> legend;
   for (size_t i = 0; i < estimates.size(); ++i) {
     const Drawn& d = estimates[i];
+    const bool keyframes = IsKeyFrameTrajectory(d.trajectory);
     std::vector<cv::Point> line;
     const auto flush = [&] {
       if (line.size() > 1) {
@@ -207,7 +208,7 @@ cv::Mat RenderErrorOverTime(const std::vector<Drawn>& estimates, double t0,
       const cv::Point2d p = axes(Eigen::Vector2d(d.trajectory[k].timestamp - t0, d.error[k] * 100));
       line.push_back(SubPixel(p - origin));
       occupied.push_back(p);
-      if (IsKeyFrameTrajectory(d.trajectory)) {
+      if (keyframes) {
         cv::circle(canvas, SubPixel(p - origin),
                    static_cast<int>((layout.line_width + 1) * kSubPixel), d.colour, -1, cv::LINE_AA,
                    kShift);

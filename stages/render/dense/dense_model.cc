@@ -66,11 +66,6 @@ std::string Format(const char* format, double value) {
   return buffer;
 }
 
-bool SamePath(const fs::path& a, const fs::path& b) {
-  std::error_code ec;
-  return fs::weakly_canonical(fs::absolute(a), ec) == fs::weakly_canonical(fs::absolute(b), ec);
-}
-
 // Sets OpenCV's worker threads for a scope.
 class OpenCvThreads {
  public:
@@ -459,13 +454,7 @@ bool DenseOptions::Check(std::string* why) const {
   }
   const std::vector<NamedPath> inputs = {
       {"--map", map}, {"--sequence", sequence}, {"--associations", associations}};
-  if (!CheckOutputNotInput({"--out", out}, inputs, why) ||
-      !CheckOutputNotInput({"--image", ImagePath()}, inputs, why)) {
-    return false;
-  }
-  if (SamePath(out, ImagePath())) {
-    return Fail(why, "--out and --image name the same file " + out.string());
-  }
+  if (!CheckOutputs({{"--out", out}, {"--image", ImagePath()}}, inputs, why)) return false;
   if (!(voxel > 0) || !std::isfinite(voxel)) {
     return Fail(why, "--voxel = " + Format("%g", voxel) + "; must be > 0 metres");
   }
