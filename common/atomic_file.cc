@@ -1,11 +1,15 @@
 #include "common/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <random>
 #include <sstream>
 
 #include "common/errors.h"
@@ -40,14 +44,68 @@ fs::path ParentOf(const fs::path& path) {
   return parent.empty() ? fs::path(".") : parent;
 }
 
+std::atomic<atomic_output_testing::CommitHook> g_commit_hook{nullptr};
+std::atomic<bool> g_force_rename_fallback{false};
+
+void CommitStep(std::string_view step) {
+  if (const auto hook = g_commit_hook.load()) hook(step);
+}
+
+// `<final>.<6 random characters><suffix>`, beside `final`.
+fs::path UniqueSibling(const fs::path& final, std::string_view suffix) {
+  static constexpr char kAlphabet[] = "abcdefghijklmnopqrstuvwxyz0123456789";
+  thread_local std::mt19937_64 random(std::random_device{}() ^
+                                      (static_cast<uint64_t>(::getpid()) << 32));
+  std::string tag(6, 'x');
+  for (char& c : tag) c = kAlphabet[random() % (sizeof(kAlphabet) - 1)];
+  fs::path path = final;
+  path += "." + tag;
+  path += suffix;
+  return path;
+}
+
+// Creates a new, empty temporary file or folder beside `final` under a name
+// no other file has (O_EXCL / mkdir fail on an existing name: try another).
+fs::path CreateUniqueTemporary(const fs::path& final, AtomicOutput::Kind kind) {
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const fs::path path = UniqueSibling(final, ".tmp");
+    if (kind == AtomicOutput::Kind::kFile) {
+      const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+      if (fd >= 0) {
+        ::close(fd);
+        return path;
+      }
+    } else if (::mkdir(path.c_str(), 0777) == 0) {
+      return path;
+    }
+    if (errno != EEXIST) {
+      throw CantCreateError(path.string() + ": cannot create: " + ErrnoText());
+    }
+  }
+  throw CantCreateError(final.string() + ": no free temporary name beside it");
+}
+
+// Exchanges two existing paths atomically; false (errno set) when the file
+// system or kernel cannot.
+bool ExchangePaths(const fs::path& a, const fs::path& b) {
+  if (g_force_rename_fallback.load()) {
+    errno = EINVAL;
+    return false;
+  }
+  return ::renameat2(AT_FDCWD, a.c_str(), AT_FDCWD, b.c_str(), RENAME_EXCHANGE) == 0;
+}
+
 }  // namespace
+
+namespace atomic_output_testing {
+void SetCommitHook(CommitHook hook) { g_commit_hook.store(hook); }
+void SetForceRenameFallback(bool force) { g_force_rename_fallback.store(force); }
+}  // namespace atomic_output_testing
 
 AtomicOutput::AtomicOutput(fs::path final_path, Kind kind)
     : final_path_(std::move(final_path)), kind_(kind) {
   if (final_path_.empty()) throw CantCreateError("empty output path");
   if (!final_path_.has_filename()) final_path_ = final_path_.parent_path();
-  temp_path_ = final_path_;
-  temp_path_ += ".tmp";
   const fs::path parent = ParentOf(final_path_);
   std::error_code ec;
   if (!fs::is_directory(parent, ec)) {
@@ -74,12 +132,7 @@ AtomicOutput::AtomicOutput(fs::path final_path, Kind kind)
       !fs::is_directory(final_path_, ec)) {
     throw CantCreateError(final_path_.string() + ": exists and is not a folder");
   }
-  fs::remove_all(temp_path_, ec);  // A stale temporary from a crashed run.
-  if (kind_ == Kind::kDirectory) {
-    if (!fs::create_directory(temp_path_, ec)) {
-      throw CantCreateError(temp_path_.string() + ": cannot create folder: " + ec.message());
-    }
-  }
+  temp_path_ = CreateUniqueTemporary(final_path_, kind_);
 }
 
 AtomicOutput::~AtomicOutput() {
@@ -102,24 +155,36 @@ void AtomicOutput::Commit() {
     }
   } else {
     FsyncTree(temp_path_);
-    // rename(2) cannot replace a non-empty folder: move the old one aside first.
-    fs::path old_path = final_path_;
-    old_path += ".old.tmp";
-    const bool had_old = fs::exists(final_path_, ec);
-    if (had_old) {
-      fs::remove_all(old_path, ec);
+    if (!fs::exists(final_path_, ec)) {
+      if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
+        throw CantCreateError(final_path_.string() + ": cannot rename from " + temp_path_.string() +
+                              ": " + ErrnoText());
+      }
+    } else if (ExchangePaths(temp_path_, final_path_)) {
+      // The final name now holds the new folder; the old one is under the
+      // temporary name, which this object owns.
+      committed_ = true;
+      CommitStep("exchanged");
+      fs::remove_all(temp_path_, ec);
+    } else if (errno == EINVAL || errno == ENOSYS || errno == ENOTSUP) {
+      // rename(2) cannot replace a non-empty folder: move the old one aside.
+      const fs::path old_path = UniqueSibling(final_path_, ".old.tmp");
       if (::rename(final_path_.c_str(), old_path.c_str()) != 0) {
         throw CantCreateError(final_path_.string() +
                               ": cannot move the old folder aside: " + ErrnoText());
       }
+      CommitStep("moved-aside");
+      if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
+        const std::string why = ErrnoText();
+        ::rename(old_path.c_str(), final_path_.c_str());
+        throw CantCreateError(final_path_.string() + ": cannot rename from " + temp_path_.string() +
+                              ": " + why);
+      }
+      fs::remove_all(old_path, ec);
+    } else {
+      throw CantCreateError(final_path_.string() + ": cannot exchange with " + temp_path_.string() +
+                            ": " + ErrnoText());
     }
-    if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
-      const std::string why = ErrnoText();
-      if (had_old) ::rename(old_path.c_str(), final_path_.c_str());
-      throw CantCreateError(final_path_.string() + ": cannot rename from " + temp_path_.string() +
-                            ": " + why);
-    }
-    if (had_old) fs::remove_all(old_path, ec);
   }
   FsyncPath(ParentOf(final_path_), true);
   committed_ = true;

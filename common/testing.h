@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace rrslam::testing {
 
@@ -41,6 +42,14 @@ CommandResult RunTool(const std::string& stage, const std::string& args);
 
 // Writes a text file (not atomically; test fixtures only).
 void WriteTextFile(const std::filesystem::path& path, const std::string& content);
+
+// Names of the temporaries AtomicOutput leaves in `dir` (entries whose name
+// ends in ".tmp", see common/atomic_file.h), sorted; empty when none (or
+// when `dir` does not exist). A finished or failed write must leave none.
+std::vector<std::string> TemporaryLeftovers(const std::filesystem::path& dir);
+inline std::vector<std::string> TemporaryLeftovers(const TempDir& dir) {
+  return TemporaryLeftovers(dir.path());
+}
 
 }  // namespace rrslam::testing
 

@@ -83,7 +83,7 @@ TEST_F(ExtractE2E, SynthThenExtract) {
                                       " --out " + Quote(out) + " -q");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(r.output.empty()) << "--quiet run printed: " << r.output;
-  EXPECT_FALSE(fs::exists(dir_ / "features.h5.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir_), std::vector<std::string>{});
   const FeaturesSummary s = ReadSummary(out);
   ExpectFeaturesFile(s, 6, settings);
   EXPECT_EQ(s.info.options["sequence"], seq.string());
@@ -197,7 +197,7 @@ TEST_F(ExtractE2E, BadInputGivesDocumentedExitCodesAndNoOutput) {
       << "one-line error: " << r.output;
 
   EXPECT_FALSE(fs::exists(out));
-  EXPECT_FALSE(fs::exists(dir_ / "out.h5.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir_), std::vector<std::string>{});
 }
 
 }  // namespace

@@ -44,7 +44,7 @@ TEST(VocabTree, WriteReadRoundTrip) {
   EXPECT_EQ(ranges[0], std::make_pair(1u, 2u));
   EXPECT_EQ(ranges[1], std::make_pair(3u, 2u));
   EXPECT_EQ(ranges[2].second, 0u);
-  EXPECT_FALSE(std::filesystem::exists(dir / "tree.h5.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
 }
 
 void ExpectInvalid(const VocabTree& t, const std::string& fragment) {

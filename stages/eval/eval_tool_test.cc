@@ -187,7 +187,7 @@ TEST_F(EvalTool, UnwritablePlotIs73AndWritesNothing) {
                                      " --plot " + Quote(dir_ / "no" / "such" / "dir" / "ate.png"));
   EXPECT_EQ(r.exit_code, 73) << r.output;
   EXPECT_FALSE(fs::exists(pairs));
-  EXPECT_FALSE(fs::exists(dir_ / "pairs.txt.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir_), std::vector<std::string>{});
   // An existing output is not destroyed by a failing run.
   testing::WriteTextFile(pairs, "keep me\n");
   EXPECT_EQ(RunTool("eval", "ate " + Inputs() + " --save-associations " + Quote(pairs) +

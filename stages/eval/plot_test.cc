@@ -108,7 +108,7 @@ TEST(PlotAte, WritesAReadablePngAtomically) {
   ASSERT_FALSE(read.empty());
   EXPECT_EQ(read.cols, PlotOptions{}.width_px);
   EXPECT_EQ(read.rows, PlotOptions{}.height_px);
-  EXPECT_FALSE(std::filesystem::exists(dir / "ate.png.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
   EXPECT_THROW(PlotAte(dir / "missing" / "ate.png", gt, result), CantCreateError);
   EXPECT_FALSE(std::filesystem::exists(dir / "missing"));
 }

@@ -157,7 +157,7 @@ TEST(RunExtract, WritesFeaturesOfEveryFrame) {
   const fs::path out = out_dir / "features.h5";
   RunExtract(seq.Options(out));
   ASSERT_TRUE(fs::exists(out));
-  EXPECT_FALSE(fs::exists(out_dir / "features.h5.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(out_dir), std::vector<std::string>{});
 
   const FeaturesFile f = ReadFeaturesFile(out);
   EXPECT_EQ(f.format.format, "rrslam.features");
@@ -261,7 +261,7 @@ class RunExtractBadInput : public ::testing::Test {
   void SetUp() override { testing::WriteTextFile(out_, "previous content"); }
   void ExpectOutputUntouched() {
     EXPECT_EQ(ReadFileToString(out_), "previous content");
-    EXPECT_FALSE(fs::exists(out_dir_ / "features.h5.tmp"));
+    EXPECT_EQ(testing::TemporaryLeftovers(out_dir_), std::vector<std::string>{});
   }
   testing::TempDir out_dir_;
   fs::path out_ = out_dir_ / "features.h5";

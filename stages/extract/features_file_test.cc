@@ -63,7 +63,7 @@ TEST(FeaturesFile, RoundTrip) {
     EXPECT_EQ(read.keypoints[i].depth, written.keypoints[i].depth);
     EXPECT_EQ(read.descriptors[i], written.descriptors[i]);
   }
-  EXPECT_FALSE(std::filesystem::exists(dir / "f.h5.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
 }
 
 TEST(FeaturesFile, SameContentGivesSameBytes) {

@@ -164,7 +164,7 @@ TEST(MapFile, WriteReadFile) {
   TempDir dir;
   const MapData map = MakeTestMap(4);
   WriteMapFile(dir / "map.rrm", map);
-  EXPECT_FALSE(std::filesystem::exists(dir / "map.rrm.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
   MapFileInfo info;
   ExpectMapsEqual(map, ReadMapFile(dir / "map.rrm", &info));
   EXPECT_EQ(info.file_size, std::filesystem::file_size(dir / "map.rrm"));

@@ -1,7 +1,7 @@
 // rrslam-synth: renders a TUM-layout RGB-D sequence of a textured room with
 // exact ground truth (see docs/synth.md).
 //
-// Output folder (written atomically: OUT.tmp, then renamed to OUT):
+// Output folder (written atomically: OUT.XXXXXX.tmp, then renamed to OUT):
 //   rgb/<timestamp>.png     8-bit colour (BGR in memory, RGB PNG)
 //   depth/<timestamp>.png   16-bit depth, 5000 units per metre, 0 = no depth
 //   rgb.txt, depth.txt      `timestamp path` lists with 3 '#' header lines

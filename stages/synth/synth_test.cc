@@ -54,7 +54,7 @@ TEST(RunSynth, WritesATumSequenceThatTheReadersAccept) {
   SynthOptions o = SmallOptions(dir / "seq");
   o.trajectory = synth::TrajectoryKind::kSweep;
   RunSynth(o);
-  EXPECT_FALSE(fs::exists(dir / "seq.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
 
   // Lists: three '#' header lines, then `timestamp path`.
   const auto rgb = Lines(dir / "seq" / "rgb.txt");
@@ -348,8 +348,7 @@ TEST(RunSynth, ReplacesAnExistingSequenceOnlyWhenDone) {
   o.frames = 3;
   RunSynth(o);
   EXPECT_EQ(Contents(dir / "seq").size(), 2u * 3u + 6u);
-  EXPECT_FALSE(fs::exists(dir / "seq.tmp"));
-  EXPECT_FALSE(fs::exists(dir / "seq.old.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
 }
 
 // Pixels where either view sees a face of a changed box (the moved box at its

@@ -138,7 +138,7 @@ TEST_F(TrackToolTest, AllZeroDepthCannotInitializeExit75) {
   EXPECT_EQ(r.exit_code, 75) << r.output;
   EXPECT_NE(r.output.find("never initialized"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out()));
-  EXPECT_FALSE(fs::exists(dir_ / "out.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir_), std::vector<std::string>{});
 }
 
 // ORB-SLAM2's reset: lost with at most 5 keyframes in the map, the map is

@@ -433,7 +433,7 @@ TEST_F(HtmlRun, WritesThePageWithAlignedGroundTruth) {
   options_.est = {dir_ / "gt.txt"};  // Any TUM file: drawn as it is.
   RunHtml(options_);
   const std::string html = ReadFileToString(options_.out);
-  EXPECT_FALSE(std::filesystem::exists(dir_ / "view.html.tmp"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir_), std::vector<std::string>{});
   const nlohmann::json data = PageData(html);
   ASSERT_TRUE(data.is_object());
   EXPECT_EQ(data["title"], "room.rrm");
