@@ -5,6 +5,7 @@
 #   make demo       run the main job on built-in synthetic data
 #   make vocab DATASET=<name>   train a vocabulary (pipelines/vocab.mk)
 #   make eval-all   evaluate every sequence (pipelines/eval.mk)
+#   make paper      the seed paper's tables and figures (pipelines/paper.mk)
 #   make bench      benchmarks, results in bench/results/
 #   make fuzz       build the libFuzzer targets (build-fuzz/)
 #   make test-tsan  the track tests under ThreadSanitizer (build-tsan/)
@@ -28,7 +29,7 @@ BIN := $(BUILD_DIR)/bin
 all: build
 
 help:
-	@sed -n '2,13p' Makefile | sed 's/^# \{0,1\}//'
+	@sed -n '2,14p' Makefile | sed 's/^# \{0,1\}//'
 
 deps:
 	@scripts/install-deps.sh
@@ -83,5 +84,6 @@ clean:
 include pipelines/demo.mk
 -include pipelines/vocab.mk
 -include pipelines/eval.mk
+-include pipelines/paper.mk
 -include bench/bench.mk
 -include pipelines/fuzz.mk

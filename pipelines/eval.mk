@@ -26,7 +26,8 @@
 # Variables: DATA_ROOT, VOCAB, EVAL_ROOT (build/eval), EVAL_MODE (batch |
 # realtime), EVAL_SEQUENCES (default: all), EVAL_MIN_FRAMES (30: one second at
 # TUM's 30 Hz), EVAL_REFERENCE (pipelines/orbslam2_ate.csv; empty: no reference
-# column), EVAL_REFERENCE_NAME (ORB-SLAM2), SKIP_BUILD (0).
+# column), EVAL_REFERENCE_NAME (ORB-SLAM2), SKIP_BUILD (0), LAUNCHER (empty; a
+# prefix of each tool's command, e.g. "srun -c2": see pipelines/vocab.mk).
 eval_mk_dir := $(dir $(lastword $(MAKEFILE_LIST)))
 EVAL_ROOT ?= $(BUILD_DIR)/eval
 VOCAB ?=
@@ -74,24 +75,25 @@ eval-all: $(if $(filter 1,$(SKIP_BUILD)),,build)
 
 eval-run: $(foreach n,$(DATASET),$(eval_results)/$(n)/ate.json)
 
-# Rules of one sequence, $(1). A failure leaves the tool's last line (its
-# error message) in error.txt; its whole log is in track.log or ate.log.
-define eval_sequence_rules
-$(eval_results)/$(1)/track/run.json: $(PIPELINE_ROOT)/$(1)/features.h5 $(call eval_vocab,$(1)) \
-    $(BIN)/rrslam-track
-	@mkdir -p $(eval_results)/$(1) && rm -f $(eval_results)/$(1)/error.txt
-	$(BIN)/rrslam-track --quiet --sequence $(call vocab_seq,$(1)) \
-	  --settings $(call vocab_settings,$(1)) --vocab $(call eval_vocab,$(1)) \
-	  --features $(PIPELINE_ROOT)/$(1)/features.h5 --mode $(EVAL_MODE) --out $$(@D) \
-	  2> $(eval_results)/$(1)/track.log || { tail -n 1 $(eval_results)/$(1)/track.log \
-	  > $(eval_results)/$(1)/error.txt; cat $(eval_results)/$(1)/track.log; exit 1; }
+# Rules of one run, tracked and evaluated into folder $(1): sequence folder
+# $(2), settings $(3), vocabulary $(4), cached features $(5). A failure leaves
+# the tool's last line (its error message) in $(1)/error.txt; its whole log is
+# in track.log or ate.log. The paper pipeline (pipelines/paper.mk) uses the
+# same rules for its cells. $(LAUNCHER) prefixes each tool's command (e.g.
+# LAUNCHER="srun -c2" runs it as a Slurm job).
+define eval_run_rules
+$(1)/track/run.json: $(5) $(4) $(BIN)/rrslam-track
+	@mkdir -p $(1) && rm -f $(1)/error.txt
+	$(LAUNCHER) $(BIN)/rrslam-track --quiet --sequence $(2) --settings $(3) --vocab $(4) \
+	  --features $(5) --mode $(EVAL_MODE) --out $$(@D) 2> $(1)/track.log \
+	  || { tail -n 1 $(1)/track.log > $(1)/error.txt; cat $(1)/track.log; exit 1; }
 
-$(eval_results)/$(1)/ate.json: $(eval_results)/$(1)/track/run.json $(BIN)/rrslam-eval
-	@rm -f $(eval_results)/$(1)/error.txt
-	$(BIN)/rrslam-eval ate --gt $(call vocab_seq,$(1))/groundtruth.txt \
-	  --est $(eval_results)/$(1)/track/CameraTrajectory.txt --json --out $$@ \
-	  --plot $(eval_results)/$(1)/ate.png --plot-title "$(1)" 2> $(eval_results)/$(1)/ate.log \
-	  || { tail -n 1 $(eval_results)/$(1)/ate.log > $(eval_results)/$(1)/error.txt; \
-	  cat $(eval_results)/$(1)/ate.log; exit 1; }
+$(1)/ate.json: $(1)/track/run.json $(BIN)/rrslam-eval
+	@rm -f $(1)/error.txt
+	$(LAUNCHER) $(BIN)/rrslam-eval ate --gt $(2)/groundtruth.txt \
+	  --est $(1)/track/CameraTrajectory.txt --json --out $$@ \
+	  --plot $(1)/ate.png --plot-title "$(notdir $(1))" 2> $(1)/ate.log \
+	  || { tail -n 1 $(1)/ate.log > $(1)/error.txt; cat $(1)/ate.log; exit 1; }
 endef
-$(foreach n,$(DATASET),$(eval $(call eval_sequence_rules,$(n))))
+$(foreach n,$(DATASET),$(eval $(call eval_run_rules,$(eval_results)/$(n),$(call vocab_seq,$(n)),$(call \
+  vocab_settings,$(n)),$(call eval_vocab,$(n)),$(PIPELINE_ROOT)/$(n)/features.h5)))

@@ -24,7 +24,9 @@
 # frame is a training image), VOCAB_SEED (0), VOCAB_MAX_DESCRIPTORS (0 = all),
 # VOCAB_WEIGHTING (tf-idf), VOCAB_SCORING (l1), VOCAB_THREADS (0 = all cores),
 # EXTRACT_STRIDE (1), EXTRACT_MAX_FRAMES (0 = all), SETTINGS, PIPELINE_ROOT,
-# SKIP_BUILD (0).
+# SKIP_BUILD (0), LAUNCHER (empty: a command that prefixes each tool's run, e.g.
+# "srun -c2" for a Slurm cluster; PIPELINE_ROOT must then be on a file system
+# every node shares).
 
 VOCAB_K ?= 10
 VOCAB_L ?= 6
@@ -53,6 +55,13 @@ vocab_settings = $(or $(SETTINGS),$(wildcard $(call vocab_seq,$(1))/settings.yam
 
 vocab_no_settings = vocab: no settings for '$(1)': give SETTINGS=<yaml> (no settings.yaml in \
   the sequence, no TUM camera in the name)
+
+# `make vocab-sequence DATASET=<names>`: prints the sequence folder of each
+# name, one a line (an empty line when there is none), so that scripts find
+# it as `vocab` does (scripts/regenerate-vocab.sh fingerprints its images).
+.PHONY: vocab-sequence
+vocab-sequence:
+	@$(foreach d,$(DATASET),echo '$(call vocab_seq,$(d))';)
 
 .PHONY: vocab
 vocab: $(foreach d,$(DATASET),$(PIPELINE_ROOT)/$(d)/voc.rrv $(PIPELINE_ROOT)/$(d)/voc.txt)
@@ -90,23 +99,23 @@ $(PIPELINE_ROOT)/$(1)/features.h5: $(PIPELINE_ROOT)/$(1)/extract.params $(BIN)/r
     $(wildcard $(call vocab_seq,$(1))/rgb.txt $(call vocab_seq,$(1))/depth.txt \
                $(call vocab_seq,$(1))/associations.txt) $(call vocab_settings,$(1))
 	$(if $(call vocab_settings,$(1)),,@echo "$(call vocab_no_settings,$(1))" >&2; exit 66)
-	$(BIN)/rrslam-extract --sequence $(call vocab_seq,$(1)) --settings $(call vocab_settings,$(1)) \
+	$(LAUNCHER) $(BIN)/rrslam-extract --sequence $(call vocab_seq,$(1)) --settings $(call vocab_settings,$(1)) \
 	  --stride $(EXTRACT_STRIDE) --max-frames $(EXTRACT_MAX_FRAMES) --out $$@
 
 $(PIPELINE_ROOT)/$(1)/tree.h5: $(PIPELINE_ROOT)/$(1)/features.h5 $(PIPELINE_ROOT)/$(1)/cluster.params \
     $(BIN)/rrslam-cluster
-	$(BIN)/rrslam-cluster --features $$< --k $(VOCAB_K) --levels $(VOCAB_L) --seed $(VOCAB_SEED) \
+	$(LAUNCHER) $(BIN)/rrslam-cluster --features $$< --k $(VOCAB_K) --levels $(VOCAB_L) --seed $(VOCAB_SEED) \
 	  --stride $(VOCAB_STRIDE) --max-descriptors $(VOCAB_MAX_DESCRIPTORS) --threads $(VOCAB_THREADS) \
 	  --out $$@
 
 $(PIPELINE_ROOT)/$(1)/voc.rrv: $(PIPELINE_ROOT)/$(1)/tree.h5 $(PIPELINE_ROOT)/$(1)/features.h5 \
     $(PIPELINE_ROOT)/$(1)/build.params $(BIN)/rrslam-vocab
-	$(BIN)/rrslam-vocab build --tree $$< --features $(PIPELINE_ROOT)/$(1)/features.h5 \
+	$(LAUNCHER) $(BIN)/rrslam-vocab build --tree $$< --features $(PIPELINE_ROOT)/$(1)/features.h5 \
 	  --weighting $(VOCAB_WEIGHTING) --scoring $(VOCAB_SCORING) --stride $(VOCAB_STRIDE) \
 	  --threads $(VOCAB_THREADS) --out $$@
 
 $(PIPELINE_ROOT)/$(1)/voc.txt: $(PIPELINE_ROOT)/$(1)/voc.rrv $(BIN)/rrslam-vocab
-	$(BIN)/rrslam-vocab convert $$< $$@
+	$(LAUNCHER) $(BIN)/rrslam-vocab convert $$< $$@
 endef
 
 $(foreach d,$(DATASET),$(eval $(call vocab_dataset_rules,$(d))))

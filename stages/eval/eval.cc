@@ -52,16 +52,6 @@ class PendingOutput {
   std::string content_;
 };
 
-// Creates every output's temporary file, then commits them all: an error in
-// any leaves no output under its final name.
-void WriteAll(std::vector<std::pair<fs::path, std::string>> files) {
-  std::vector<PendingOutput> pending;
-  pending.reserve(files.size());
-  for (auto& [path, content] : files) pending.emplace_back(path, std::move(content));
-  for (PendingOutput& output : pending) output.Write();
-  for (PendingOutput& output : pending) output.Commit();
-}
-
 std::string Header(const nlohmann::ordered_json& run, const std::string& columns) {
   return "# " + Producer(kStage) + " " + run.dump() + "\n# " + columns + "\n";
 }
@@ -99,6 +89,14 @@ std::string Report(bool json, const char* command, const fs::path& gt, const fs:
 }
 
 }  // namespace
+
+void WriteOutputFiles(std::vector<std::pair<fs::path, std::string>> files) {
+  std::vector<PendingOutput> pending;
+  pending.reserve(files.size());
+  for (auto& [path, content] : files) pending.emplace_back(path, std::move(content));
+  for (PendingOutput& output : pending) output.Write();
+  for (PendingOutput& output : pending) output.Commit();
+}
 
 bool EvalAteOptions::Check(std::string* why) const {
   if (gt_path.empty()) {
@@ -230,7 +228,7 @@ AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {
   const std::string report = Report(options.json, "ate", options.gt_path, options.est_path,
                                     options.ate.ToJson(), results, std::move(text));
   if (!options.report_path.empty()) files.emplace_back(options.report_path, report);
-  WriteAll(std::move(files));
+  WriteOutputFiles(std::move(files));
   if (options.report_path.empty()) {
     out << report;
     out.flush();
@@ -260,7 +258,7 @@ RpeResult RunEvalRpe(const EvalRpeOptions& options, std::ostream& out) {
                                                FormatRpePairs(result));
   }
   if (!options.report_path.empty()) files.emplace_back(options.report_path, report);
-  WriteAll(std::move(files));
+  WriteOutputFiles(std::move(files));
   if (options.report_path.empty()) {
     out << report;
     out.flush();

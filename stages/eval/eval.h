@@ -16,6 +16,8 @@
 #include <nlohmann/json.hpp>
 #include <ostream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "stages/eval/ate.h"
 #include "stages/eval/plot.h"
@@ -63,6 +65,13 @@ struct EvalRpeOptions {
   bool Check(std::string* why) const;
   nlohmann::ordered_json ToJson() const;
 };
+
+// Writes each (path, content) atomically (common/atomic_file.h): every file is
+// written under its temporary name before the first is renamed to its final
+// name, so an error in writing any of them leaves no output of the run behind
+// and existing files keep their content. Throws CantCreateError. For the
+// subcommands that write more than one file.
+void WriteOutputFiles(std::vector<std::pair<std::filesystem::path, std::string>> files);
 
 // Runs `rrslam-eval ate`. Throws UsageError (invalid options), NoInputError
 // (missing input), DataError (malformed input, no pairs, fewer than

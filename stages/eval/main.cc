@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "common/cli.h"
+#include "stages/eval/compare.h"
 #include "stages/eval/eval.h"
 #include "stages/eval/summary.h"
 
@@ -143,21 +144,56 @@ void BindSummary(CLI::App* command, rrslam::EvalSummaryOptions* options) {
       ->capture_default_str();
 }
 
+void BindCompare(CLI::App* command, std::vector<std::string>* column_specs,
+                 rrslam::EvalCompareOptions* options) {
+  command
+      ->add_option("--column", *column_specs,
+                   "A variant: NAME=DIR, DIR holding one run folder per sequence (ate.json from "
+                   "rrslam-eval ate --json, track/run.json; error.txt when failed, skipped.txt "
+                   "when skipped). Repeat for each column, in order; rows are the union of the "
+                   "sequence folders, sorted")
+      ->required()
+      ->allow_extra_args(false);  // One NAME=DIR per --column.
+  command->add_option("--baseline", options->baseline,
+                      "Column every other column's change is computed against, "
+                      "(cell - baseline) / baseline in percent. Default: the first --column");
+  command->add_option("--out", options->out,
+                      "Write the table (or JSON) to this file instead of stdout");
+  command->add_flag("--json", options->json,
+                    "JSON (inputs, options, every cell) instead of Markdown");
+  command->add_option("--csv", options->csv_path,
+                      "Also write one line per cell: "
+                      "sequence,variant,ate_rmse_cm,change_pct,status,frames,tracked");
+  command->add_option("--plot", options->plot_path,
+                      "Also write a PNG grouped bar chart of the ATE RMSE (cm) per sequence and "
+                      "variant");
+  command->add_option("--plot-width", options->plot.width_px, "Chart width, pixels [320, 8000]")
+      ->capture_default_str();
+  command->add_option("--plot-height", options->plot.height_px, "Chart height, pixels [240, 8000]")
+      ->capture_default_str();
+  command->add_option("--title", options->title,
+                      "Caption of the table (a bold line above it) and title of the chart");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   rrslam::EvalAteOptions ate_options;
   rrslam::EvalRpeOptions rpe_options;
   rrslam::EvalSummaryOptions summary_options;
+  rrslam::EvalCompareOptions compare_options;
+  std::vector<std::string> compare_columns;
   CLI::App* ate = nullptr;
   CLI::App* rpe = nullptr;
   CLI::App* summary = nullptr;
+  CLI::App* compare = nullptr;
   return rrslam::RunTool(
       argc, argv,
       {"eval",
        "Evaluates an estimated camera trajectory against ground truth as the TUM RGB-D "
        "benchmark does: absolute trajectory error (ate) or relative pose error (rpe); "
-       "summary tabulates many evaluated runs. The result is printed on stdout (text, or "
+       "summary tabulates many evaluated runs, compare the ATE of several variants per "
+       "sequence. The result is printed on stdout (text, or "
        "JSON with --json) or written to --out."},
       [&](CLI::App& app) {
         app.require_subcommand(1);
@@ -170,14 +206,23 @@ int main(int argc, char** argv) {
         summary = app.add_subcommand("summary", "One table over many evaluated runs");
         BindSummary(summary, &summary_options);
         summary->fallthrough();
+        compare = app.add_subcommand(
+            "compare", "ATE RMSE of several variants side by side: table, CSV, bar chart");
+        BindCompare(compare, &compare_columns, &compare_options);
+        compare->fallthrough();
       },
       [&] {
         if (ate->parsed()) {
           rrslam::RunEvalAte(ate_options, std::cout);
         } else if (rpe->parsed()) {
           rrslam::RunEvalRpe(rpe_options, std::cout);
-        } else {
+        } else if (summary->parsed()) {
           rrslam::RunEvalSummary(summary_options, std::cout);
+        } else {
+          for (const std::string& spec : compare_columns) {
+            compare_options.columns.push_back(rrslam::ParseCompareColumn(spec));
+          }
+          rrslam::RunEvalCompare(compare_options, std::cout);
         }
       });
 }
