@@ -12,6 +12,7 @@ PACKAGES=(
   clang libclang-rt-14-dev   # libFuzzer for `make fuzz` and the fuzz smoke tests
   nodejs     # node and npm: bundle the render stage's browser viewer (three.js, esbuild)
   chromium   # headless WebGL test of that viewer (render/html_viewer)
+  slurm-wlm munge  # LAUNCHER=srun: the e2e/slurm test starts a one-node Slurm of its own
 )
 # Debian's nodejs comes without npm (a package of its own); a Node.js that
 # brings its own npm (NodeSource's, as on the project's machines) conflicts
