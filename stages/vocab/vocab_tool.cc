@@ -22,6 +22,7 @@
 #include "stages/vocab/vocab_build.h"
 #include "stages/vocab/vocabulary.h"
 #include "stages/vocab/vocabulary_format.h"
+#include "stages/vocab/vocabulary_yaml.h"
 
 namespace rrslam {
 namespace {
@@ -31,14 +32,18 @@ bool Fail(std::string* why, const std::string& text) {
   return false;
 }
 
-enum class FileKind { kBinary, kText, kUnknown };
+enum class FileKind { kBinary, kText, kYaml, kUnknown };
 
 FileKind KindByExtension(const std::filesystem::path& path) {
   const std::string ext = path.extension().string();
   if (ext == ".rrv") return FileKind::kBinary;
   if (ext == ".txt") return FileKind::kText;
+  if (HasYamlExtension(path)) return FileKind::kYaml;
   return FileKind::kUnknown;
 }
+
+constexpr char kOutputExtensions[] =
+    "must end in .rrv (binary), .txt (DBoW2 text) or .yml / .yml.gz (DBoW2 YAML)";
 
 double Seconds(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -47,8 +52,11 @@ double Seconds(std::chrono::steady_clock::time_point start) {
 // Writes a vocabulary in the format named by the extension of `path`.
 void WriteVocabulary(const std::filesystem::path& path, const VocabularyView& view,
                      const std::string& source) {
-  if (KindByExtension(path) == FileKind::kText) {
+  const FileKind kind = KindByExtension(path);
+  if (kind == FileKind::kText) {
     WriteTextVocabulary(path, view, source);
+  } else if (kind == FileKind::kYaml) {
+    WriteYamlVocabulary(path, view, source);
   } else {
     WriteBinaryVocabulary(path, view);
   }
@@ -74,7 +82,7 @@ bool VocabBuildOptions::Check(std::string* why) const {
   if (features.empty()) return Fail(why, "features: at least one features file is required");
   if (out.empty()) return Fail(why, "out: an output file is required");
   if (KindByExtension(out) == FileKind::kUnknown) {
-    return Fail(why, "out = " + out.string() + "; must end in .rrv (binary) or .txt (DBoW2 text)");
+    return Fail(why, "out = " + out.string() + "; " + kOutputExtensions);
   }
   std::vector<NamedPath> inputs = {{"--tree", tree}};
   for (const auto& f : features) inputs.push_back({"--features", f});
@@ -103,7 +111,7 @@ bool VocabConvertOptions::Check(std::string* why) const {
   if (in.empty()) return Fail(why, "in: an input vocabulary is required");
   if (out.empty()) return Fail(why, "out: an output file is required");
   if (KindByExtension(out) == FileKind::kUnknown) {
-    return Fail(why, "out = " + out.string() + "; must end in .rrv (binary) or .txt (DBoW2 text)");
+    return Fail(why, "out = " + out.string() + "; " + kOutputExtensions);
   }
   return CheckOutputNotInput({"out", out}, {{"in", in}}, why);
 }
@@ -153,20 +161,28 @@ void BindVocabCommands(CLI::App& app, VocabCommands* c) {
   build->callback([c] { c->chosen = "build"; });
 
   CLI::App* convert = app.add_subcommand(
-      "convert", "Converts between binary (.rrv) and DBoW2 text (.txt) vocabularies");
-  convert->add_option("in", c->convert.in, "Input vocabulary (format told by content)")->required();
-  convert->add_option("out", c->convert.out, "Output vocabulary (format told by extension)")
+      "convert",
+      "Converts between binary (.rrv), DBoW2 text (.txt) and DBoW2 YAML (.yml, .yml.gz) "
+      "vocabularies");
+  convert
+      ->add_option("in", c->convert.in,
+                   "Input vocabulary: binary, DBoW2 text or DBoW2 YAML (plain or gzip), told by "
+                   "content")
+      ->required();
+  convert
+      ->add_option("out", c->convert.out,
+                   "Output vocabulary, told by extension: .rrv, .txt, .yml or .yml.gz")
       ->required();
   convert->callback([c] { c->chosen = "convert"; });
 
   CLI::App* info = app.add_subcommand("info", "Prints a vocabulary's header and checksum state");
-  info->add_option("file", c->info.file, "Vocabulary (.rrv or DBoW2 text)")->required();
+  info->add_option("file", c->info.file, "Vocabulary (.rrv, DBoW2 text or YAML)")->required();
   info->add_flag("--json", c->info.json, "Print JSON");
   info->callback([c] { c->chosen = "info"; });
 
   CLI::App* query = app.add_subcommand(
       "query", "Prints BoW vectors of frames of a features file and their scores");
-  query->add_option("--vocab", c->query.vocab, "Vocabulary (.rrv or DBoW2 text)")->required();
+  query->add_option("--vocab", c->query.vocab, "Vocabulary (.rrv, DBoW2 text or YAML)")->required();
   query->add_option("--features", c->query.features, "Features file")->required();
   query
       ->add_option("--frame", c->query.frames,
@@ -258,22 +274,25 @@ void RunVocabConvert(const VocabConvertOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   const auto start = std::chrono::steady_clock::now();
-  const Vocabulary vocabulary = Vocabulary::Load(options.in);
+  VocabularyFileFormat format;
+  const Vocabulary vocabulary = LoadVocabularyFile(options.in, &format);
   const double load_seconds = Seconds(start);
   VocabularyView view = vocabulary.view();
   std::string metadata;
   if (KindByExtension(options.out) == FileKind::kBinary && !vocabulary.is_binary()) {
-    metadata = nlohmann::json{{"producer", Producer("vocab")},
-                              {"command", "convert"},
-                              {"converted_from", options.in.filename().string()},
-                              {"source_format", "dbow2-text"},
-                              {"source_checksum", Hex64(vocabulary.checksum())}}
-                   .dump();
+    metadata =
+        nlohmann::json{{"producer", Producer("vocab")},
+                       {"command", "convert"},
+                       {"converted_from", options.in.filename().string()},
+                       {"source_format",
+                        format == VocabularyFileFormat::kDbow2Yaml ? "dbow2-yaml" : "dbow2-text"},
+                       {"source_checksum", Hex64(vocabulary.checksum())}}
+            .dump();
     view.metadata = metadata;
   }
   WriteVocabulary(options.out, view, options.in.string());
   spdlog::info("vocab convert: {} ({}, loaded in {:.3f} s) -> {} in {:.2f} s", options.in.string(),
-               vocabulary.is_binary() ? "binary" : "DBoW2 text", load_seconds, options.out.string(),
+               VocabularyFileFormatName(format), load_seconds, options.out.string(),
                Seconds(start));
 }
 
@@ -325,15 +344,17 @@ std::string RunVocabInfo(const VocabInfoOptions& options) {
       }
     }
   } else {
-    const Vocabulary v = Vocabulary::Load(options.file);
-    j["format"] = "DBoW2 text";
+    VocabularyFileFormat format;
+    const Vocabulary v = LoadVocabularyFile(options.file, &format);
+    const std::string format_name = VocabularyFileFormatName(format);
+    j["format"] = format_name;
     j["k"] = v.k();
     j["levels"] = v.levels();
     j["weighting"] = WeightingName(v.weighting());
     j["scoring"] = ScoringName(v.scoring());
     j["nodes"] = v.num_nodes();
     j["words"] = v.num_words();
-    j["checksum"] = "none in DBoW2 text (xxh3 of the file " + Hex64(v.checksum()) + ")";
+    j["checksum"] = "none in " + format_name + " (xxh3 of the file " + Hex64(v.checksum()) + ")";
     j["structure"] = "ok";
     j["tree"] = Hex64(v.content_hash());
   }
@@ -356,7 +377,7 @@ std::string RunVocabInfo(const VocabInfoOptions& options) {
 std::string RunVocabQuery(const VocabQueryOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
-  const Vocabulary vocabulary = Vocabulary::Load(options.vocab);
+  const Vocabulary vocabulary = LoadVocabularyFile(options.vocab);
   const FeaturesFile features = ReadFeaturesFile(options.features);
   const size_t num_frames = features.num_frames();
   for (int64_t f : options.frames) {

@@ -19,7 +19,8 @@ namespace rrslam {
 struct VocabBuildOptions {
   std::filesystem::path tree;                   // rrslam-cluster output (HDF5).
   std::vector<std::filesystem::path> features;  // Training features files (>= 1).
-  // Output: binary (.rrv) or DBoW2 text (.txt), told by the extension.
+  // Output: binary (.rrv), DBoW2 text (.txt) or DBoW2 YAML (.yml, .yml.gz),
+  // told by the extension.
   std::filesystem::path out;
   std::string weighting = "tf-idf";  // tf-idf, tf, idf or binary.
   std::string scoring = "l1";        // l1, l2, chi-square, kl, bhattacharyya or dot-product.
@@ -32,8 +33,10 @@ struct VocabBuildOptions {
   nlohmann::json ToJson() const;
 };
 
-// `convert`: binary <-> DBoW2 text; the input format is told by content, the
-// output format by the extension of `out` (.rrv binary, .txt text).
+// `convert`: between binary, DBoW2 text and DBoW2 YAML; the input format is
+// told by content (LoadVocabularyFile), the output format by the extension
+// of `out` (.rrv binary, .txt text, .yml / .yaml YAML, .yml.gz / .yaml.gz
+// gzip-compressed YAML).
 struct VocabConvertOptions {
   std::filesystem::path in;
   std::filesystem::path out;
@@ -51,7 +54,7 @@ struct VocabInfoOptions {
 
 // `query`: BoW vectors of frames of a features file, and their scores.
 struct VocabQueryOptions {
-  std::filesystem::path vocab;     // Vocabulary (.rrv or DBoW2 .txt).
+  std::filesystem::path vocab;     // Vocabulary (.rrv, DBoW2 .txt or .yml[.gz]).
   std::filesystem::path features;  // Features file (rrslam-extract output).
   // Frame indices (0-based, >= 1 of them). With two or more, the first is
   // scored against each of the others.
@@ -77,7 +80,9 @@ void BindVocabCommands(CLI::App& app, VocabCommands* commands);
 void RunVocabCommand(const VocabCommands& commands);
 
 // Each throws UsageError for invalid options, NoInputError / DataError for bad
-// inputs, CantCreateError when an output cannot be written.
+// inputs, CantCreateError when an output cannot be written. Every command
+// loads vocabularies with LoadVocabularyFile (vocabulary_yaml.h), so each
+// reads all three formats.
 void RunVocabBuild(const VocabBuildOptions& options);
 void RunVocabConvert(const VocabConvertOptions& options);
 // Returns the text printed (also printed to stdout). Throws DataError after

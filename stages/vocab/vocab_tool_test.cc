@@ -64,6 +64,11 @@ TEST(VocabOptions, ConvertInfoQueryChecks) {
   c.out = "b.rrv";
   std::string why;
   EXPECT_TRUE(c.Check(&why)) << why;
+  for (const char* yaml : {"b.yml", "b.yml.gz", "b.yaml", "b.yaml.gz"}) {
+    c.out = yaml;
+    EXPECT_TRUE(c.Check(&why)) << yaml << ": " << why;
+  }
+  c.out = "b.rrv";
   VocabConvertOptions bad_c = c;
   bad_c.in.clear();
   ExpectCheckFails(bad_c, "in");
@@ -164,6 +169,14 @@ TEST_F(VocabCommandsTest, BuildConvertInfoQuery) {
   EXPECT_EQ(ReadFileToString(dir_ / "v.txt"), ReadFileToString(dir_ / "back.txt"));
   const Vocabulary back = Vocabulary::Load(dir_ / "back.rrv");
   EXPECT_EQ(nlohmann::json::parse(back.view().metadata)["converted_from"], "v.txt");
+  // binary -> DBoW2 YAML (gzip) -> text, and YAML -> binary: the same tree.
+  RunVocabConvert({dir_ / "v.rrv", dir_ / "v.yml.gz"});
+  RunVocabConvert({dir_ / "v.yml.gz", dir_ / "yaml.txt"});
+  EXPECT_EQ(ReadFileToString(dir_ / "v.txt"), ReadFileToString(dir_ / "yaml.txt"));
+  RunVocabConvert({dir_ / "v.yml.gz", dir_ / "yaml.rrv"});
+  const Vocabulary from_yaml = Vocabulary::Load(dir_ / "yaml.rrv");
+  EXPECT_EQ(from_yaml.content_hash(), v.content_hash());
+  EXPECT_EQ(nlohmann::json::parse(from_yaml.view().metadata)["source_format"], "dbow2-yaml");
 
   const std::string info = RunVocabInfo({dir_ / "v.rrv", false});
   for (const char* line : {"format: rrslam.vocabulary 1.0 (binary)", "k: 6", "levels: 3",

@@ -46,6 +46,12 @@ VocabularyView LoadBinary(std::span<const uint8_t> bytes, const std::string& nam
 VocabularyData LoadText(std::span<const uint8_t> bytes, const std::string& name,
                         uint64_t* checksum) {
   if (bytes.empty()) throw DataError(name + ": empty file, not a vocabulary");
+  if (DetectVocabularyFileFormat(bytes) == VocabularyFileFormat::kDbow2Yaml) {
+    // Read by vocabulary_yaml.h, which needs OpenCV and zlib (see there).
+    throw DataError(name +
+                    ": a DBoW2 YAML vocabulary; convert it first with `rrslam-vocab convert " +
+                    name + " <name>.rrv` (the binary form loads in milliseconds)");
+  }
   const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   VocabularyData data = ParseTextVocabulary(text, name, ParseThreads());
   *checksum = Checksum64(bytes);
@@ -102,7 +108,8 @@ Vocabulary Vocabulary::FromBytes(std::span<const uint8_t> bytes, const std::stri
   return v;
 }
 
-Vocabulary Vocabulary::FromData(VocabularyData data, const std::string& name) {
+Vocabulary Vocabulary::FromData(VocabularyData data, const std::string& name,
+                                std::optional<uint64_t> checksum) {
   if (data.descriptors().size() != data.info.num_nodes) {
     throw DataError(name + ": vocabulary arrays differ from the node count");
   }
@@ -112,9 +119,10 @@ Vocabulary Vocabulary::FromData(VocabularyData data, const std::string& name) {
   impl.name = name;
   impl.data = std::move(data);
   impl.view = impl.data.view();
-  // Checksum of the arrays as they would be laid out in a binary payload.
-  impl.checksum = Checksum64(
-      {reinterpret_cast<const uint8_t*>(impl.view.descriptors), 40 * impl.view.info.num_nodes});
+  // Else the checksum of the arrays as they would be laid out in a binary payload.
+  impl.checksum = checksum ? *checksum
+                           : Checksum64({reinterpret_cast<const uint8_t*>(impl.view.descriptors),
+                                         40 * impl.view.info.num_nodes});
   impl.content_hash = VocabularyContentHash(impl.view);
   return v;
 }

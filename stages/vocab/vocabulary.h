@@ -3,13 +3,15 @@
 //
 // Loaded from rrslam's binary format (memory-mapped, see vocabulary_format.h)
 // or from the DBoW2 text format of ORB-SLAM2's ORBvoc.txt; the format is told
-// by the file's content. Immutable after loading; every const method is
-// thread-safe.
+// by the file's content. DBoW2's YAML (.yml, .yml.gz) is read by
+// LoadVocabularyFile (vocabulary_yaml.h), which also reads these two.
+// Immutable after loading; every const method is thread-safe.
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -57,16 +59,21 @@ class Vocabulary {
  public:
   // Loads a binary (.rrv) or DBoW2 text vocabulary, told by content. Throws
   // NoInputError when missing and DataError when malformed, truncated,
-  // corrupt or of an unsupported format version; errors name the file.
+  // corrupt or of an unsupported format version, or a DBoW2 YAML file (the
+  // message says to convert it); errors name the file.
   static Vocabulary Load(const std::filesystem::path& path);
 
   // Loads a binary or text vocabulary held in memory (copied), told by
   // content; `name` stands for the file in errors and Identity().
   static Vocabulary FromBytes(std::span<const uint8_t> bytes, const std::string& name);
 
-  // Takes ownership of arrays built in memory (`vocab build`), after the
-  // same checks as a loaded file (ValidateVocabularyLinks).
-  static Vocabulary FromData(VocabularyData data, const std::string& name);
+  // Takes ownership of arrays built in memory (`vocab build`) or parsed from
+  // another format (DBoW2 YAML, vocabulary_yaml.h), after the same checks as
+  // a loaded file (ValidateVocabularyLinks). checksum() is `checksum` when
+  // given (the XXH3-64 of the file the arrays were parsed from), else the
+  // XXH3-64 of the arrays laid out as a binary payload.
+  static Vocabulary FromData(VocabularyData data, const std::string& name,
+                             std::optional<uint64_t> checksum = std::nullopt);
 
   Vocabulary();
   ~Vocabulary();
@@ -88,7 +95,7 @@ class Vocabulary {
   // True when loaded from the binary format, false for DBoW2 text or built
   // in memory.
   bool is_binary() const;
-  // XXH3-64 of the binary payload, or of the whole text file.
+  // XXH3-64 of the binary payload, or of the whole text or YAML file.
   uint64_t checksum() const;
   // Identity of the tree itself (VocabularyContentHash): equal for the same
   // tree in either format, wherever it was trained or whatever its metadata.

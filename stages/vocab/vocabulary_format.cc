@@ -85,6 +85,34 @@ bool ParseScoring(std::string_view name, ScoringType* s) {
 }
 
 // ---------------------------------------------------------------------------
+// File formats
+
+const char* VocabularyFileFormatName(VocabularyFileFormat format) {
+  switch (format) {
+    case VocabularyFileFormat::kBinary:
+      return "binary";
+    case VocabularyFileFormat::kDbow2Text:
+      return "DBoW2 text";
+    case VocabularyFileFormat::kDbow2Yaml:
+      return "DBoW2 YAML";
+  }
+  return "unknown";
+}
+
+VocabularyFileFormat DetectVocabularyFileFormat(std::span<const uint8_t> bytes) {
+  if (HasMagic(bytes, kVocabularyFormat)) return VocabularyFileFormat::kBinary;
+  // Neither the binary format nor DBoW2 text (digits first) starts with
+  // either of these.
+  if (bytes.size() >= 2 && bytes[0] == 0x1f && bytes[1] == 0x8b) {
+    return VocabularyFileFormat::kDbow2Yaml;
+  }
+  std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+  if (text.starts_with("%YAML")) return VocabularyFileFormat::kDbow2Yaml;
+  return VocabularyFileFormat::kDbow2Text;
+}
+
+// ---------------------------------------------------------------------------
 // Owned arrays
 
 LargeBuffer::LargeBuffer(size_t bytes) : size_(bytes) {
@@ -168,8 +196,12 @@ void BuildLinks(std::span<const uint32_t> parents, bool leaf_flags_in_parents, V
     }
     const uint32_t first = LinkIndex(link), count = LinkChildren(link);
     if (first + count != i) {
+      // first + count < i: the node where the next sibling should be.
+      const uint32_t gap = first + count;
       throw DataError(where(i) + ": the children of node " + std::to_string(p) +
-                      " are not consecutive (DBoW2 writes siblings together)");
+                      " are not consecutive: node " + std::to_string(gap) +
+                      " between them has parent " + std::to_string(parents[gap] & ~kLeafFlagBit) +
+                      " (DBoW2 numbers siblings consecutively)");
     }
     if (count + 1 > k) {
       throw DataError(where(i) + ": node " + std::to_string(p) +
@@ -177,13 +209,31 @@ void BuildLinks(std::span<const uint32_t> parents, bool leaf_flags_in_parents, V
     }
     links[p] = InnerLink(first, count + 1);
   }
+  // Inner nodes (isLeaf = 0) without children: a file cut short loses the
+  // children of every inner node whose subtree it had not reached, and
+  // DBoW2 numbers subtrees depth first, so a truncated ORBvoc.txt shows
+  // many such nodes; the message counts them.
+  auto childless_inner_nodes = [&] {
+    uint64_t count = 0;
+    for (uint64_t j = 1; j < n; ++j) {
+      count += (parents[j] & kLeafFlagBit) == 0 && LinkChildren(links[j]) == 0;
+    }
+    return count;
+  };
   uint32_t words = 0;
   for (uint64_t i = 0; i < n; ++i) {
     const uint32_t children = LinkChildren(links[i]);
     if (leaf_flags_in_parents && i > 0 && ((parents[i] & kLeafFlagBit) != 0) != (children == 0)) {
-      throw DataError(where(i) +
-                      " is marked isLeaf = " + std::to_string((parents[i] & kLeafFlagBit) != 0) +
-                      " but has " + std::to_string(children) + " children");
+      const bool marked_leaf = (parents[i] & kLeafFlagBit) != 0;
+      std::string message = where(i) + " is marked isLeaf = " + std::to_string(marked_leaf) +
+                            " but has " + std::to_string(children) + " children";
+      if (!marked_leaf) {
+        message += " (" + std::to_string(childless_inner_nodes()) +
+                   " nodes marked isLeaf = 0 have none; the last node is " + NodeText(n - 1);
+        if (line_offset > 0) message += " on line " + std::to_string(n - 1 + line_offset);
+        message += ": is the file truncated?)";
+      }
+      throw DataError(message);
     }
     if (children == 0) {
       if (i == 0) throw DataError(source + ": the root has no children");

@@ -51,6 +51,17 @@ const char* ScoringName(ScoringType s);
 bool ParseWeighting(std::string_view name, WeightingType* w);
 bool ParseScoring(std::string_view name, ScoringType* s);
 
+// --- File formats ----------------------------------------------------------
+// The three forms a vocabulary file takes; DBoW2 YAML is read by
+// vocabulary_yaml.h.
+enum class VocabularyFileFormat { kBinary, kDbow2Text, kDbow2Yaml };
+// "binary", "DBoW2 text", "DBoW2 YAML".
+const char* VocabularyFileFormatName(VocabularyFileFormat format);
+// Told by the first bytes: the magic RRSLVOCB is binary; the gzip magic
+// (1f 8b: FileStorage's .yml.gz) or "%YAML" (after an optional UTF-8 byte
+// order mark) is YAML; anything else is taken for DBoW2 text.
+VocabularyFileFormat DetectVocabularyFileFormat(std::span<const uint8_t> bytes);
+
 // --- In-memory forms ---------------------------------------------------------
 struct VocabularyInfo {
   int k = 0;       // Branching factor.
