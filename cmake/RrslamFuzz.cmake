@@ -3,11 +3,18 @@
 # Targets are built with clang++ -fsanitize=fuzzer,address,undefined into
 # ${CMAKE_BINARY_DIR}/fuzz/ when a clang with libFuzzer is found
 # (scripts/install-deps.sh installs it); otherwise the custom target only
-# says so, and the stage's CTest fuzz test reports itself skipped (exit 77).
-# `make fuzz` (pipelines/fuzz.mk) builds every <stage>_fuzzers target.
+# says so, and the stage's CTest fuzz tests report themselves skipped (exit
+# 77). `make fuzz` (pipelines/fuzz.mk) builds them all (custom target
+# `fuzzers`); cmake/run_fuzzer.sh runs one (CTest and `make fuzz-run`).
 
 set(RRSLAM_FUZZ_SECONDS 4 CACHE STRING "Seconds each fuzz target runs in the test suite")
 set(RRSLAM_FUZZ_DIR ${CMAKE_BINARY_DIR}/fuzz)
+# fuzz/targets.txt lists every target with its seed corpus ("name seed_dir"
+# per line, written by rrslam_add_fuzz_test) for bench/fuzz/run.sh (`make
+# fuzz-run`); the custom target `fuzzers` builds them all (`make fuzz`).
+set(RRSLAM_FUZZ_TARGETS ${RRSLAM_FUZZ_DIR}/targets.txt)
+file(WRITE ${RRSLAM_FUZZ_TARGETS} "")
+add_custom_target(fuzzers)
 find_program(RRSLAM_CLANGXX NAMES clang++ clang++-14)
 
 # Whether clang can link a libFuzzer program (probed once per build tree).
@@ -23,20 +30,52 @@ if(RRSLAM_CLANGXX)
   endif()
 endif()
 
-# rrslam_add_fuzzers(<target> SOURCES <library sources...> FUZZERS <fuzzer sources...>)
+# rrslam_add_fuzzers(<target> SOURCES <library sources...> FUZZERS <fuzzer sources...>
+#                    [INCLUDES <dirs...>] [LIBS <libs...>])
 # Compiles every source (paths relative to the source root) with the fuzzer
 # flags into fuzz/<target>_obj/, and links each fuzzer source with all the
 # library sources into fuzz/<fuzzer name>. Custom target <target>.
+# The libraries rrslam's own code calls (OpenCV, HDF5, libpng, ...) are the
+# system's, not instrumented: LIBS names them as CMake targets (their file is
+# linked and their include directories added: opencv_core, PNG::PNG, an
+# INTERFACE target such as Eigen3::Eigen for its headers only) or as library
+# files / -l flags (e.g. ${HDF5_CXX_LIBRARIES}); INCLUDES adds directories
+# for those given as files. xxhash and pthread are always linked.
 function(rrslam_add_fuzzers target)
-  cmake_parse_arguments(ARG "" "" "SOURCES;FUZZERS" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "SOURCES;FUZZERS;INCLUDES;LIBS" ${ARGN})
   if(NOT RRSLAM_LIBFUZZER_OK)
     message(STATUS "clang++ with libFuzzer not found: ${target} are not built")
     add_custom_target(${target} COMMAND ${CMAKE_COMMAND} -E echo
       "${target}: clang++ with libFuzzer not found, nothing to build")
+    add_dependencies(fuzzers ${target})
     return()
   endif()
+  set(include_dirs ${ARG_INCLUDES})
+  set(link_items "")
+  foreach(lib ${ARG_LIBS})
+    if(TARGET ${lib})
+      get_target_property(dirs ${lib} INTERFACE_INCLUDE_DIRECTORIES)
+      if(dirs)
+        list(APPEND include_dirs ${dirs})
+      endif()
+      get_target_property(type ${lib} TYPE)
+      if(NOT type STREQUAL "INTERFACE_LIBRARY")
+        list(APPEND link_items $<TARGET_FILE:${lib}>)
+      endif()
+    else()
+      list(APPEND link_items ${lib})
+    endif()
+  endforeach()
+  # The compiler's own /usr/include stays last (as -isystem it would come
+  # before the C++ library's wrappers that #include_next it).
+  list(REMOVE_DUPLICATES include_dirs)
+  list(REMOVE_ITEM include_dirs /usr/include)
+  set(include_flags -I${CMAKE_SOURCE_DIR} -I${CMAKE_BINARY_DIR}/generated)
+  foreach(dir ${include_dirs})
+    list(APPEND include_flags -isystem${dir})
+  endforeach()
   set(flags -std=c++20 -g -O1 -mpopcnt -fsanitize=fuzzer-no-link,address,undefined
-      -fno-sanitize-recover=undefined -I${CMAKE_SOURCE_DIR})
+      -fno-sanitize-recover=undefined ${include_flags})
   set(obj_dir ${RRSLAM_FUZZ_DIR}/${target}_obj)
   set(library_objects "")
   set(outputs "")
@@ -59,11 +98,26 @@ function(rrslam_add_fuzzers target)
     get_filename_component(base ${source} NAME_WE)
     add_custom_command(OUTPUT ${RRSLAM_FUZZ_DIR}/${base}
       COMMAND ${RRSLAM_CLANGXX} -fsanitize=fuzzer,address,undefined ${obj_dir}/${base}.o
-              ${library_objects} -lxxhash -pthread -o ${RRSLAM_FUZZ_DIR}/${base}
+              ${library_objects} ${link_items} -lxxhash -pthread -o ${RRSLAM_FUZZ_DIR}/${base}
       DEPENDS ${obj_dir}/${base}.o ${library_objects}
       COMMENT "clang++ (libFuzzer) link ${base}"
       VERBATIM)
     list(APPEND outputs ${RRSLAM_FUZZ_DIR}/${base})
   endforeach()
   add_custom_target(${target} ALL DEPENDS ${outputs})
+  add_dependencies(fuzzers ${target})
+endfunction()
+
+# rrslam_add_fuzz_test(<module> <fuzzer name> <seed dir>)
+# CTest test <module>/fuzz_<name without _fuzzer>: cmake/run_fuzzer.sh runs
+# fuzz/<fuzzer name> for RRSLAM_FUZZ_SECONDS with seed 1 from <seed dir> (work
+# files in fuzz/work/<fuzzer name>/); skipped (77) when it was not built.
+# Also lists the target in fuzz/targets.txt.
+function(rrslam_add_fuzz_test module fuzzer seeds)
+  file(APPEND ${RRSLAM_FUZZ_TARGETS} "${fuzzer} ${seeds}\n")
+  string(REGEX REPLACE "_fuzzer$" "" short ${fuzzer})
+  add_test(NAME ${module}/fuzz_${short}
+    COMMAND ${CMAKE_SOURCE_DIR}/cmake/run_fuzzer.sh ${RRSLAM_FUZZ_DIR}/${fuzzer} ${seeds}
+            ${RRSLAM_FUZZ_DIR}/work/${fuzzer} ${RRSLAM_FUZZ_SECONDS})
+  set_tests_properties(${module}/fuzz_${short} PROPERTIES SKIP_RETURN_CODE 77 TIMEOUT 120)
 endfunction()

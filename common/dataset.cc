@@ -49,8 +49,11 @@ std::vector<std::pair<size_t, size_t>> AssociateTimestamps(const std::vector<dou
 }
 
 std::vector<std::pair<double, std::string>> ReadTimestampList(const fs::path& path) {
-  const std::string text = ReadFileToString(path);
-  const std::string source = path.string();
+  return ParseTimestampList(ReadFileToString(path), path.string());
+}
+
+std::vector<std::pair<double, std::string>> ParseTimestampList(std::string_view text,
+                                                               const std::string& source) {
   std::vector<std::pair<double, std::string>> list;
   ForEachDataLine(text, source, [&](const std::vector<std::string_view>& fields, int line) {
     if (fields.size() < 2) {
@@ -61,11 +64,8 @@ std::vector<std::pair<double, std::string>> ReadTimestampList(const fs::path& pa
   return list;
 }
 
-namespace {
-
-std::vector<RgbdFrameRef> ReadAssociations(const fs::path& dir, const fs::path& path) {
-  const std::string text = ReadFileToString(path);
-  const std::string source = path.string();
+std::vector<RgbdFrameRef> ParseAssociations(std::string_view text, const fs::path& dir,
+                                            const std::string& source) {
   std::vector<RgbdFrameRef> frames;
   ForEachDataLine(text, source, [&](const std::vector<std::string_view>& fields, int line) {
     if (fields.size() < 4) {
@@ -81,8 +81,6 @@ std::vector<RgbdFrameRef> ReadAssociations(const fs::path& dir, const fs::path& 
   });
   return frames;
 }
-
-}  // namespace
 
 RgbdSequence RgbdSequence::Open(const fs::path& dir, const SequenceOptions& options) {
   std::error_code ec;
@@ -104,7 +102,7 @@ RgbdSequence RgbdSequence::Open(const fs::path& dir, const SequenceOptions& opti
     if (!fs::is_regular_file(associations, ec)) {
       throw NoInputError(associations.string() + ": no such associations file");
     }
-    seq.frames_ = ReadAssociations(dir, associations);
+    seq.frames_ = ParseAssociations(ReadFileToString(associations), dir, associations.string());
     if (seq.frames_.empty()) throw DataError(associations.string() + ": lists no frames");
   } else {
     if (!fs::is_regular_file(rgb_list, ec)) {

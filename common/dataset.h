@@ -15,6 +15,7 @@
 #include <opencv2/core/mat.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/trajectory.h"
@@ -48,6 +49,19 @@ std::vector<std::pair<size_t, size_t>> AssociateTimestamps(const std::vector<dou
 // Reads a `timestamp path` list (rgb.txt, depth.txt). Throws NoInputError /
 // DataError naming the file and line.
 std::vector<std::pair<double, std::string>> ReadTimestampList(const std::filesystem::path& path);
+
+// Parses the text of a `timestamp path` list; `source` names it in errors
+// (DataError with the line). Fields after the second are ignored.
+std::vector<std::pair<double, std::string>> ParseTimestampList(std::string_view text,
+                                                               const std::string& source);
+
+// Parses the text of an associations file (`rgb_timestamp rgb_path
+// depth_timestamp depth_path` per line, '#' comments; fields after the fourth
+// are ignored); image paths are taken relative to `dir`. `source` names the
+// file in errors (DataError with the line). Whether the images exist is
+// RgbdSequence::Open's check, not this one's.
+std::vector<RgbdFrameRef> ParseAssociations(std::string_view text, const std::filesystem::path& dir,
+                                            const std::string& source);
 
 class RgbdSequence {
  public:

@@ -178,5 +178,42 @@ TEST_F(BadSequence, UnreadableImage) {
   EXPECT_THROW(s.LoadGray(0), DataError);
 }
 
+TEST(TimestampList, ParsesTextAsTheFileReaderDoes) {
+  const auto list =
+      ParseTimestampList("# rgb\n1.5 rgb/a.png\n\n2.25,rgb/b.png extra\r\n", "rgb.txt");
+  ASSERT_EQ(list.size(), 2u);
+  EXPECT_EQ(list[0], std::make_pair(1.5, std::string("rgb/a.png")));
+  EXPECT_EQ(list[1], std::make_pair(2.25, std::string("rgb/b.png")));
+  EXPECT_TRUE(ParseTimestampList("", "rgb.txt").empty());
+  try {
+    ParseTimestampList("1.0 a.png\n2.0\n", "mem.txt");
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("mem.txt line 2"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ParseTimestampList("inf a.png\n", "rgb.txt"), DataError);
+  testing::TempDir dir;
+  testing::WriteTextFile(dir / "rgb.txt", "# rgb\n1.5 rgb/a.png\n");
+  EXPECT_EQ(ReadTimestampList(dir / "rgb.txt"), ParseTimestampList("1.5 rgb/a.png", "x"));
+}
+
+TEST(Associations, ParsesTextRelativeToTheSequence) {
+  const auto frames =
+      ParseAssociations("# a\n1.0 rgb/1.png 1.01 depth/1.png\n2.0\trgb/2.png\t2.02\tdepth/2.png\n",
+                        "seq", "assoc.txt");
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_EQ(frames[1].rgb_timestamp, 2.0);
+  EXPECT_EQ(frames[1].depth_timestamp, 2.02);
+  EXPECT_EQ(frames[1].rgb_path, fs::path("seq") / "rgb/2.png");
+  EXPECT_EQ(frames[1].depth_path, fs::path("seq") / "depth/2.png");
+  try {
+    ParseAssociations("1.0 rgb/1.png 1.01\n", "seq", "assoc.txt");
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("assoc.txt line 1"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ParseAssociations("1.0 rgb/1.png x depth/1.png\n", "seq", "a.txt"), DataError);
+}
+
 }  // namespace
 }  // namespace rrslam

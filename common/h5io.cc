@@ -1,5 +1,9 @@
 #include "common/h5io.h"
 
+#include <H5FDcore.h>
+
+#include <algorithm>
+#include <atomic>
 #include <system_error>
 
 namespace rrslam {
@@ -39,8 +43,10 @@ void WriteFormatAttributes(H5::H5File& file, const FormatSpec& spec, const std::
   WriteH5StringAttribute(file, "options", options.dump());
 }
 
-H5FormatInfo ReadFormatAttributes(const H5::H5File& file) {
-  const std::string path = file.getFileName();
+namespace {
+
+// ReadFormatAttributes naming `path` in its errors.
+H5FormatInfo ReadFormatAttributesOf(const H5::H5File& file, const std::string& path) {
   H5FormatInfo info;
   info.format = ReadH5StringAttribute(file, "format", path);
   info.major = static_cast<uint16_t>(ReadH5ScalarAttribute(file, "format_major", path));
@@ -51,6 +57,38 @@ H5FormatInfo ReadFormatAttributes(const H5::H5File& file) {
     info.options = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   }
   return info;
+}
+
+// The root attribute checks of OpenH5File and OpenH5FileImage: `file` is
+// of `spec`'s format and a supported major version. Throws DataError naming
+// `path`, also for HDF5 errors on the way (a damaged attribute table).
+void CheckFormatAttributes(const H5::H5File& file, const FormatSpec& spec, const std::string& path,
+                           H5FormatInfo* info) {
+  H5FormatInfo read;
+  try {
+    if (!file.attrExists("format")) {
+      throw DataError(path + ": HDF5 file without a 'format' attribute (expected " + spec.name +
+                      ")");
+    }
+    read = ReadFormatAttributesOf(file, path);
+  } catch (const H5::Exception&) {
+    throw DataError(path + ": cannot read the root attributes (corrupt HDF5 file?)");
+  }
+  if (read.format != spec.name) {
+    throw DataError(path + ": is a " + read.format + " file, expected " + spec.name);
+  }
+  if (read.major != spec.major) {
+    throw DataError(path + ": " + spec.name + " version " + std::to_string(read.major) + "." +
+                    std::to_string(read.minor) + " is not supported (this build reads " +
+                    std::to_string(spec.major) + ".x)");
+  }
+  if (info != nullptr) *info = std::move(read);
+}
+
+}  // namespace
+
+H5FormatInfo ReadFormatAttributes(const H5::H5File& file) {
+  return ReadFormatAttributesOf(file, file.getFileName());
 }
 
 H5::H5File OpenH5File(const std::filesystem::path& path, const FormatSpec& spec,
@@ -68,20 +106,31 @@ H5::H5File OpenH5File(const std::filesystem::path& path, const FormatSpec& spec,
   } catch (const H5::Exception&) {
     throw DataError(path.string() + ": cannot open as HDF5 (corrupt or truncated?)");
   }
-  if (!file.attrExists("format")) {
-    throw DataError(path.string() + ": HDF5 file without a 'format' attribute (expected " +
-                    spec.name + ")");
+  CheckFormatAttributes(file, spec, path.string(), info);
+  return file;
+}
+
+H5::H5File OpenH5FileImage(std::span<const uint8_t> bytes, const FormatSpec& spec,
+                           const std::string& name, H5FormatInfo* info) {
+  if (bytes.empty())
+    throw DataError(name + ": empty, not an HDF5 file (expected " + spec.name + ")");
+  // The core driver refuses to open an image under the name of an existing
+  // file; no file can exist below /dev/null, and the counter keeps the names
+  // of images open at the same time apart.
+  static std::atomic<uint64_t> counter{0};
+  const std::string image_name = "/dev/null/rrslam-h5-image-" + std::to_string(++counter);
+  H5::H5File file;
+  try {
+    H5::FileAccPropList access;
+    if (H5Pset_fapl_core(access.getId(), 1 << 16, /*backing_store=*/false) < 0 ||
+        H5Pset_file_image(access.getId(), const_cast<uint8_t*>(bytes.data()), bytes.size()) < 0) {
+      throw H5::PropListIException("OpenH5FileImage", "cannot set up the core driver");
+    }
+    file.openFile(image_name, H5F_ACC_RDONLY, access);
+  } catch (const H5::Exception&) {
+    throw DataError(name + ": cannot open as HDF5 (not HDF5, corrupt or truncated?)");
   }
-  H5FormatInfo read = ReadFormatAttributes(file);
-  if (read.format != spec.name) {
-    throw DataError(path.string() + ": is a " + read.format + " file, expected " + spec.name);
-  }
-  if (read.major != spec.major) {
-    throw DataError(path.string() + ": " + spec.name + " version " + std::to_string(read.major) +
-                    "." + std::to_string(read.minor) + " is not supported (this build reads " +
-                    std::to_string(spec.major) + ".x)");
-  }
-  if (info != nullptr) *info = std::move(read);
+  CheckFormatAttributes(file, spec, name, info);
   return file;
 }
 
@@ -102,25 +151,73 @@ void WriteH5Array(H5::Group& group, const std::string& name, const void* data,
   if (!empty) set.write(data, type);
 }
 
+namespace {
+
+// Deflate expands at most 1032:1; twice that leaves room for any chunk layout.
+constexpr hsize_t kMaxExpansion = 2048;
+
+// Throws DataError when dataset `set` of shape `dims` declares more data
+// than its stored bytes (at most the file's size) can hold.
+void CheckDeclaredSize(const H5::DataSet& set, const std::vector<hsize_t>& dims,
+                       const std::string& name, const std::string& path) {
+  hsize_t bytes = set.getDataType().getSize();
+  bool overflow = false;
+  for (hsize_t d : dims) overflow |= __builtin_mul_overflow(bytes, d, &bytes);
+  if (!overflow && bytes == 0) return;
+  hsize_t stored = set.getStorageSize();
+  hsize_t file_size = 0;
+  const hid_t file_id = H5Iget_file_id(set.getId());
+  if (file_id >= 0) {
+    H5Fget_filesize(file_id, &file_size);
+    H5Fclose(file_id);
+  }
+  stored = std::min(stored, file_size);
+  if (overflow || stored == 0 || bytes / kMaxExpansion > stored) {
+    std::string shape;
+    for (hsize_t d : dims) shape += (shape.empty() ? "" : " x ") + std::to_string(d);
+    if (shape.empty()) shape = "1";
+    throw DataError(path + ": dataset " + name + " declares " + shape +
+                    " elements, more than the " + std::to_string(stored) +
+                    " bytes stored for it can hold (corrupt file)");
+  }
+}
+
+}  // namespace
+
 std::vector<hsize_t> H5ArrayShape(const H5::Group& group, const std::string& name,
                                   const std::string& path) {
-  if (!group.nameExists(name)) throw DataError(path + ": missing dataset " + name);
   try {
+    if (!group.nameExists(name)) throw DataError(path + ": missing dataset " + name);
     H5::DataSet set = group.openDataSet(name);
     H5::DataSpace space = set.getSpace();
     std::vector<hsize_t> dims(space.getSimpleExtentNdims());
     space.getSimpleExtentDims(dims.data());
+    CheckDeclaredSize(set, dims, name, path);
     return dims;
   } catch (const H5::Exception&) {
     throw DataError(path + ": cannot read dataset " + name);
   }
 }
 
+namespace {
+
+// Transfer properties with a type conversion buffer for `elements` values:
+// libhdf5's default is 1 MB, zeroed for every read that converts (every
+// string read), whatever the data's size.
+H5::DSetMemXferPropList ConversionBuffer(hsize_t elements) {
+  H5::DSetMemXferPropList xfer;
+  xfer.setBuffer(std::clamp<size_t>(16 * elements, 4096, size_t{1} << 20), nullptr, nullptr);
+  return xfer;
+}
+
+}  // namespace
+
 void ReadH5Array(const H5::Group& group, const std::string& name, void* out,
                  const H5::PredType& type, const std::string& path) {
   try {
     H5::DataSet set = group.openDataSet(name);
-    set.read(out, type);
+    set.read(out, type, H5::DataSpace::ALL, H5::DataSpace::ALL,
+             ConversionBuffer(set.getSpace().getSimpleExtentNpoints()));
   } catch (const H5::Exception&) {
     throw DataError(path + ": cannot read dataset " + name + " (corrupt or wrong type)");
   }
@@ -134,11 +231,26 @@ void WriteH5StringAttribute(H5::H5Object& object, const std::string& name,
   attribute.write(type, value);
 }
 
-std::string ReadH5StringAttribute(const H5::H5Object& object, const std::string& name,
+namespace {
+
+// Opens attribute `name` of `object` and checks that it holds one value (a
+// read into a single string or double would overrun with more).
+H5::Attribute OpenSingleAttribute(const H5::H5Object& object, const std::string& name,
                                   const std::string& path) {
   if (!object.attrExists(name)) throw DataError(path + ": missing attribute " + name);
+  H5::Attribute attribute = object.openAttribute(name);
+  if (attribute.getSpace().getSimpleExtentNpoints() != 1) {
+    throw DataError(path + ": attribute " + name + " is not a single value");
+  }
+  return attribute;
+}
+
+}  // namespace
+
+std::string ReadH5StringAttribute(const H5::H5Object& object, const std::string& name,
+                                  const std::string& path) {
   try {
-    H5::Attribute attribute = object.openAttribute(name);
+    H5::Attribute attribute = OpenSingleAttribute(object, name, path);
     std::string value;
     attribute.read(attribute.getStrType(), value);
     return value;
@@ -155,9 +267,8 @@ void WriteH5ScalarAttribute(H5::H5Object& object, const std::string& name, doubl
 
 double ReadH5ScalarAttribute(const H5::H5Object& object, const std::string& name,
                              const std::string& path) {
-  if (!object.attrExists(name)) throw DataError(path + ": missing attribute " + name);
   try {
-    H5::Attribute attribute = object.openAttribute(name);
+    H5::Attribute attribute = OpenSingleAttribute(object, name, path);
     double value = 0;
     attribute.read(H5::PredType::NATIVE_DOUBLE, &value);
     return value;
@@ -199,7 +310,8 @@ std::vector<std::string> ReadH5StringArray(const H5::Group& group, const std::st
     }
     H5::StrType type(H5::PredType::C_S1, H5T_VARIABLE);
     std::vector<char*> pointers(dims[0], nullptr);
-    set.read(pointers.data(), type);
+    set.read(pointers.data(), type, H5::DataSpace::ALL, H5::DataSpace::ALL,
+             ConversionBuffer(dims[0]));
     values.reserve(dims[0]);
     for (char* p : pointers) values.emplace_back(p != nullptr ? p : "");
     H5::DataSpace space = set.getSpace();

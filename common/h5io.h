@@ -51,6 +51,15 @@ void WriteFormatAttributes(H5::H5File& file, const FormatSpec& spec, const std::
 H5::H5File OpenH5File(const std::filesystem::path& path, const FormatSpec& spec,
                       H5FormatInfo* info = nullptr);
 
+// Opens the HDF5 file image `bytes` (a whole file's bytes held in memory,
+// e.g. a fuzz input) read-only, through HDF5's core driver without a backing
+// store: nothing is read from or written to disk. HDF5 copies the bytes, so
+// they need not outlive the call. Checks the root attributes as OpenH5File
+// does, with the same DataErrors, naming `name` (which stands for the file in
+// messages; the H5File's own getFileName() is an internal name, not `name`).
+H5::H5File OpenH5FileImage(std::span<const uint8_t> bytes, const FormatSpec& spec,
+                           const std::string& name, H5FormatInfo* info = nullptr);
+
 // Reads the root attributes without checking them (for `info` commands).
 H5FormatInfo ReadFormatAttributes(const H5::H5File& file);
 
@@ -92,7 +101,11 @@ void WriteH5Array(H5::Group& group, const std::string& name, std::span<const T> 
   WriteH5Array(group, name, data.data(), H5TypeOf<T>(), dims, chunk_rows);
 }
 
-// Shape of dataset `name`; throws DataError naming `path` when it is absent.
+// Shape of dataset `name`. Throws DataError naming `path` when it is absent,
+// unreadable, or declares more data than its file can hold: more bytes than
+// 2048 times the bytes stored for it (deflate expands at most 1032:1), capped
+// by the file's size. A damaged file can declare any shape with a fill value
+// and no data; the check keeps the arrays read from it as small as the file.
 std::vector<hsize_t> H5ArrayShape(const H5::Group& group, const std::string& name,
                                   const std::string& path);
 
@@ -118,12 +131,16 @@ std::vector<T> ReadH5Array(const H5::Group& group, const std::string& name, cons
 }
 
 // Variable-length string attributes on any object (file, group, dataset).
+// The reader accepts fixed-length strings too; it throws DataError naming
+// `path` when the attribute is missing, not a string, or not a single value.
 void WriteH5StringAttribute(H5::H5Object& object, const std::string& name,
                             const std::string& value);
 std::string ReadH5StringAttribute(const H5::H5Object& object, const std::string& name,
                                   const std::string& path);
 
 // Scalar numeric attributes, stored as `stored_type` (converted from double).
+// The reader throws DataError naming `path` when the attribute is missing,
+// not numeric, or not a single value.
 void WriteH5ScalarAttribute(H5::H5Object& object, const std::string& name, double value,
                             const H5::PredType& stored_type = H5::PredType::IEEE_F64LE);
 double ReadH5ScalarAttribute(const H5::H5Object& object, const std::string& name,

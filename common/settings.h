@@ -67,8 +67,10 @@ struct Settings {
 };
 
 // Reads and checks a settings file. Throws NoInputError when it is missing,
-// DataError when it is not parseable YAML, lacks Camera.fx/fy/cx/cy, or fails
-// Check(); the message names the file and the key.
+// DataError when it is not parseable YAML, not one YAML document holding a
+// map of keys at column 0 (ORB-SLAM2's layout; other shapes can hang
+// OpenCV's parser, see settings.cc), lacks Camera.fx/fy/cx/cy, or fails
+// Check(); the message names the file and the key (or the line).
 Settings ReadSettings(const std::filesystem::path& path);
 
 // Parses and checks settings text (e.g. the copy a features file records) with
@@ -103,6 +105,10 @@ struct Viewpoint {
 // origin). Throws NoInputError when the file is missing, DataError naming
 // the file and the key otherwise.
 Viewpoint ReadViewpoint(const std::filesystem::path& path);
+
+// Parses the viewpoint from settings text with the errors of ReadViewpoint;
+// `name` stands for the file in messages.
+Viewpoint ParseViewpoint(const std::string& text, const std::string& name);
 
 // Formats settings in the same layout (deterministic text).
 std::string FormatSettings(const Settings& settings);

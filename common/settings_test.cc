@@ -170,5 +170,72 @@ TEST(Viewpoint, ReadsOrbSlam2ViewerKeys) {
   EXPECT_THROW(ReadViewpoint(dir.path()), NoInputError);
 }
 
+TEST(Viewpoint, ParsesTextWithTheFileErrors) {
+  const std::string text =
+      "%YAML:1.0\nViewer.ViewpointX: 0.5\nViewer.ViewpointY: -0.7\nViewer.ViewpointZ: -1.8\n"
+      "Viewer.ViewpointF: 420\n";
+  const Viewpoint v = ParseViewpoint(text, "mem.yaml");
+  EXPECT_EQ(v.x, 0.5);
+  EXPECT_EQ(v.f, 420);
+  testing::TempDir dir;
+  testing::WriteTextFile(dir / "v.yaml", text);
+  EXPECT_EQ(ReadViewpoint(dir / "v.yaml").z, v.z);
+  for (const std::string& bad : {std::string(), std::string("%YAML:1.0\nViewer.ViewpointX: [\n"),
+                                 std::string("%YAML:1.0\nViewer.ViewpointX: 1\n")}) {
+    try {
+      ParseViewpoint(bad, "mem.yaml");
+      FAIL() << "accepted: " << bad;
+    } catch (const DataError& e) {
+      EXPECT_NE(std::string(e.what()).find("mem.yaml"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// Found by common/fuzz/settings_fuzzer.cc: a coefficient of -0 was written
+// as "-0", which reads back as the integer 0 (and is written as "0").
+TEST(Settings, NegativeZeroIsWrittenAsZero) {
+  const Settings s = ParseSettings(
+      "%YAML:1.0\nCamera.fx: 500\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n"
+      "Camera.p2: -0.0\n",
+      "s.yaml");
+  const std::string text = FormatSettings(s);
+  EXPECT_NE(text.find("Camera.p2: 0\n"), std::string::npos) << text;
+  EXPECT_EQ(FormatSettings(ParseSettings(text, "again.yaml")), text);
+}
+
+// Found by common/fuzz/settings_fuzzer.cc: OpenCV's YAML parser (4.6) never
+// returned on some text that is not one map of keys at column 0 (a line
+// left of an indented top-level collection, a second document); such text
+// is now rejected before OpenCV sees it.
+TEST(Settings, RejectsTextThatIsNotOneMapAtColumnZero) {
+  const std::string intrinsics = "Camera.fx: 500\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n";
+  const std::pair<std::string, std::string> cases[] = {
+      {"%YAML:1.0\n----=\n----\n\n", "line 2: '----=' starts with '-'"},
+      {"%YAML:1.0\n -%\n:#:-\n\n", "line 2: ' -%' is indented"},
+      {"%YAML:1.0\n" + intrinsics + "---\nx: 1\n", "line 6: '---' starts with '-'"},
+      {"%YAML:1.0\n- 1\n- 2\n", "line 2: '- 1' starts with '-'"},
+      {"%YAML:1.0\n---\n---\n" + intrinsics, "line 3: '---' starts with '-'"},
+      {"%YAML:1.0\n--- a: 1\n", "line 2: '--- a: 1' starts with '-'"},
+      {"%YAML:1.0\n" + intrinsics + "...\n", "line 6: '...' ends the document"},
+      {"%YAML:1.0\n  " + intrinsics, "line 2: '  Camera.fx: 500' is indented"}};
+  for (const auto& [text, fragment] : cases) {
+    try {
+      ParseSettings(text, "s.yaml");
+      FAIL() << "accepted: " << text;
+    } catch (const DataError& e) {
+      EXPECT_NE(std::string(e.what()).find("s.yaml: " + fragment), std::string::npos)
+          << text << " -> " << e.what();
+    }
+    EXPECT_THROW(ParseViewpoint(text, "v.yaml"), DataError);
+  }
+  // One opening marker, indented comments, comments of dashes and nested
+  // lists stay fine.
+  EXPECT_EQ(
+      ParseSettings("%YAML:1.0\n---  # start\n  # note\n#-----\n" + intrinsics + "list:\n  - 1\n",
+                    "s.yaml")
+          .fx,
+      500);
+}
+
 }  // namespace
 }  // namespace rrslam

@@ -1,5 +1,6 @@
 #include "common/trajectory.h"
 
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -25,7 +26,13 @@ Trajectory ParseTumTrajectory(const std::string& text, const std::string& source
     }
     StampedPose pose;
     pose.timestamp = v[0];
-    pose.T_world_cam = Rigid3d(q.normalized(), Eigen::Vector3d(v[1], v[2], v[3]));
+    // Components near the double range overflow the norm (1e200 squared):
+    // normalized() would give a zero quaternion; stableNormalized() scales
+    // first (and is kept to that case: it may round the last bit otherwise).
+    const bool overflows = !std::isfinite(q.norm());
+    const Eigen::Quaterniond unit =
+        overflows ? Eigen::Quaterniond(q.coeffs().stableNormalized()) : q.normalized();
+    pose.T_world_cam = Rigid3d(unit, Eigen::Vector3d(v[1], v[2], v[3]));
     trajectory.push_back(pose);
   });
   return trajectory;
@@ -42,9 +49,21 @@ std::string FormatTumTrajectory(const Trajectory& trajectory) {
   for (const StampedPose& pose : trajectory) {
     const Eigen::Quaterniond& q = pose.T_world_cam.rotation;
     const Eigen::Vector3d& t = pose.T_world_cam.translation;
-    std::snprintf(line, sizeof(line), "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", pose.timestamp,
-                  t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
-    out += line;
+    auto print = [&](char* buffer, size_t size) {
+      return std::snprintf(buffer, size, "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n",
+                           pose.timestamp, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    };
+    // Fixed notation of a value near 1e300 has 300 digits: a line that does
+    // not fit the buffer is printed again at its length (it was cut, and the
+    // file lost its newline and fields).
+    const int length = print(line, sizeof(line));
+    if (length < static_cast<int>(sizeof(line))) {
+      out.append(line, static_cast<size_t>(length));
+    } else {
+      std::string long_line(static_cast<size_t>(length) + 1, '\0');
+      print(long_line.data(), long_line.size());
+      out.append(long_line.data(), static_cast<size_t>(length));
+    }
   }
   return out;
 }

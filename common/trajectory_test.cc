@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include "common/atomic_file.h"
 #include "common/errors.h"
 #include "common/testing.h"
@@ -68,6 +71,34 @@ TEST(Trajectory, ReadsSharedGroundTruth) {
   RRSLAM_REQUIRE_SHARED_DATA(data);
   const Trajectory gt = ReadTumTrajectory(data / "tum" / "fr1_desk" / "groundtruth.txt");
   EXPECT_EQ(gt.size(), 2335u);
+}
+
+// Found with common/fuzz/trajectory_fuzzer.cc's round-trip property: a line
+// longer than the 256-byte buffer (fixed notation of 1e300 has 300 digits)
+// was cut, losing its newline and fields, and did not read back.
+TEST(Trajectory, LongLinesAreWrittenWhole) {
+  Trajectory t(2);
+  t[0].timestamp = 1e300;
+  t[0].T_world_cam.translation = {-1e300, 2.5, 1e250};
+  t[1].timestamp = 2;
+  const std::string text = FormatTumTrajectory(t);
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 2) << text;
+  const Trajectory r = ParseTumTrajectory(text, "t.txt");
+  ASSERT_EQ(r.size(), 2u);
+  EXPECT_EQ(r[0].timestamp, 1e300);
+  EXPECT_EQ(r[0].T_world_cam.translation.x(), -1e300);
+  EXPECT_EQ(r[1].timestamp, 2);
+  EXPECT_EQ(FormatTumTrajectory(r), text);
+}
+
+// Found with common/fuzz/trajectory_fuzzer.cc's unit-quaternion property:
+// components whose squares overflow (1e200) normalized to a zero quaternion.
+TEST(Trajectory, QuaternionsWithHugeComponentsNormalize) {
+  const Trajectory t = ParseTumTrajectory("1 0 0 0 1e200 0 0 1e200\n", "t.txt");
+  ASSERT_EQ(t.size(), 1u);
+  EXPECT_NEAR(t[0].T_world_cam.rotation.norm(), 1.0, 1e-12);
+  EXPECT_NEAR(t[0].T_world_cam.rotation.x(), std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(t[0].T_world_cam.rotation.w(), std::sqrt(0.5), 1e-12);
 }
 
 }  // namespace

@@ -96,9 +96,11 @@ void WriteVocabTree(const std::filesystem::path& path, const VocabTree& tree,
   out.Commit();
 }
 
-VocabTree ReadVocabTree(const std::filesystem::path& path, H5FormatInfo* info) {
-  const std::string name = path.string();
-  H5::H5File file = OpenH5File(path, kVocabTreeFormat, info);
+namespace {
+
+// The body of ReadVocabTree and ReadVocabTreeImage: everything after the root
+// attributes were checked.
+VocabTree ReadTree(const H5::H5File& file, const std::string& name) {
   VocabTree tree;
   try {
     const double k = ReadH5ScalarAttribute(file, "k", name);
@@ -108,7 +110,9 @@ VocabTree ReadVocabTree(const std::filesystem::path& path, H5FormatInfo* info) {
     }
     tree.k = static_cast<int>(k);
     tree.levels = static_cast<int>(levels);
-    if (!file.nameExists("nodes")) throw DataError(name + ": missing group nodes");
+    if (!file.nameExists("nodes") || file.childObjType("nodes") != H5O_TYPE_GROUP) {
+      throw DataError(name + ": missing group nodes");
+    }
     H5::Group nodes = file.openGroup("nodes");
     tree.parent = ReadH5Array<int32_t>(nodes, "parent", name, nullptr, 1);
     tree.level = ReadH5Array<uint8_t>(nodes, "level", name, nullptr, 1);
@@ -126,6 +130,17 @@ VocabTree ReadVocabTree(const std::filesystem::path& path, H5FormatInfo* info) {
   }
   ValidateVocabTree(tree, name);
   return tree;
+}
+
+}  // namespace
+
+VocabTree ReadVocabTree(const std::filesystem::path& path, H5FormatInfo* info) {
+  return ReadTree(OpenH5File(path, kVocabTreeFormat, info), path.string());
+}
+
+VocabTree ReadVocabTreeImage(std::span<const uint8_t> bytes, const std::string& name,
+                             H5FormatInfo* info) {
+  return ReadTree(OpenH5FileImage(bytes, kVocabTreeFormat, name, info), name);
 }
 
 }  // namespace rrslam

@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -59,5 +60,11 @@ void WriteVocabTree(const std::filesystem::path& path, const VocabTree& tree,
 // DataError when it is not a rrslam.vocab_tree file of a supported major
 // version or breaks an invariant. `info` receives the root attributes.
 VocabTree ReadVocabTree(const std::filesystem::path& path, H5FormatInfo* info = nullptr);
+
+// The same from the bytes of a tree file held in memory (an HDF5 file image,
+// see OpenH5FileImage; used by the fuzz target). `name` stands for the file in
+// messages. Throws DataError as ReadVocabTree.
+VocabTree ReadVocabTreeImage(std::span<const uint8_t> bytes, const std::string& name,
+                             H5FormatInfo* info = nullptr);
 
 }  // namespace rrslam

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/atomic_file.h"
 #include "common/errors.h"
 #include "common/testing.h"
 #include "stages/extract/features_file.h"
@@ -96,6 +97,24 @@ TEST(VocabTree, ReadRejectsOtherFormatsAndMissingFiles) {
   EXPECT_THROW(ReadVocabTree(dir / "missing.h5"), NoInputError);
   testing::WriteTextFile(dir / "text.h5", "not hdf5");
   EXPECT_THROW(ReadVocabTree(dir / "text.h5"), DataError);
+}
+
+TEST(VocabTree, ReadsFromMemoryAsFromDisk) {
+  testing::TempDir dir;
+  WriteVocabTree(dir / "tree.h5", SmallTree(), "rrslam-test 0", {{"k", 2}});
+  const std::string text = ReadFileToString(dir / "tree.h5");
+  const std::vector<uint8_t> bytes(text.begin(), text.end());
+  H5FormatInfo info;
+  const VocabTree tree = ReadVocabTreeImage(bytes, "mem.h5", &info);
+  EXPECT_EQ(tree.parent, SmallTree().parent);
+  EXPECT_EQ(tree.count, SmallTree().count);
+  EXPECT_EQ(info.producer, "rrslam-test 0");
+  try {
+    ReadVocabTreeImage(std::vector<uint8_t>(bytes.begin(), bytes.end() - 200), "mem.h5");
+    FAIL() << "a truncated image was read";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("mem.h5"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

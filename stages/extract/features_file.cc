@@ -79,21 +79,23 @@ void WriteFeaturesFile(const std::filesystem::path& path, const FeaturesFile& fe
 
 namespace {
 
-struct OpenedFeatures {
-  H5::H5File file;
-  H5FormatInfo info;
+// The frame offsets of an opened features file and its keypoint count.
+struct FeaturesLayout {
   std::vector<uint64_t> offsets;
   size_t num_keypoints = 0;
 };
 
-OpenedFeatures OpenFeatures(const std::filesystem::path& path) {
-  const std::string name = path.string();
-  OpenedFeatures o;
-  o.file = OpenH5File(path, kFeaturesFormat, &o.info);
-  if (!o.file.nameExists("frames") || !o.file.nameExists("keypoints")) {
-    throw DataError(name + ": missing group frames or keypoints");
+// Group `group` of `file`; DataError when it is absent or not a group.
+H5::Group OpenGroup(const H5::H5File& file, const std::string& group, const std::string& name) {
+  if (!file.nameExists(group) || file.childObjType(group) != H5O_TYPE_GROUP) {
+    throw DataError(name + ": missing group " + group);
   }
-  H5::Group frames = o.file.openGroup("frames");
+  return file.openGroup(group);
+}
+
+FeaturesLayout ReadLayout(const H5::H5File& file, const std::string& name) {
+  FeaturesLayout o;
+  H5::Group frames = OpenGroup(file, "frames", name);
   o.offsets = ReadH5Array<uint64_t>(frames, "keypoint_offset", name, nullptr, 1);
   if (o.offsets.empty() || o.offsets.front() != 0) {
     throw DataError(name + ": frames/keypoint_offset must start at 0");
@@ -104,7 +106,7 @@ OpenedFeatures OpenFeatures(const std::filesystem::path& path) {
     }
   }
   o.num_keypoints = o.offsets.back();
-  H5::Group kps = o.file.openGroup("keypoints");
+  H5::Group kps = OpenGroup(file, "keypoints", name);
   const std::vector<hsize_t> desc_shape = H5ArrayShape(kps, "descriptor", name);
   if (desc_shape.size() != 2 || desc_shape[1] != 32) {
     throw DataError(name + ": keypoints/descriptor must be N x 32 bytes (256-bit ORB)");
@@ -128,19 +130,19 @@ std::vector<T> ReadColumn(const H5::Group& group, const std::string& dataset, si
   return values;
 }
 
-}  // namespace
-
-FeaturesFile ReadFeaturesFile(const std::filesystem::path& path) {
-  const std::string name = path.string();
-  OpenedFeatures o = OpenFeatures(path);
+// The body of ReadFeaturesFile and ReadFeaturesFileImage: everything after
+// the root attributes were checked.
+FeaturesFile ReadFeatures(const H5::H5File& file, const H5FormatInfo& info,
+                          const std::string& name) {
+  const FeaturesLayout o = ReadLayout(file, name);
   FeaturesFile out;
-  out.format = o.info;
-  if (o.file.attrExists("settings")) {
-    out.settings_yaml = ReadH5StringAttribute(o.file, "settings", name);
+  out.format = info;
+  if (file.attrExists("settings")) {
+    out.settings_yaml = ReadH5StringAttribute(file, "settings", name);
   }
   const size_t F = o.offsets.size() - 1;
   const size_t N = o.num_keypoints;
-  H5::Group frames = o.file.openGroup("frames");
+  H5::Group frames = OpenGroup(file, "frames", name);
   const auto rgb_ts = ReadColumn<double>(frames, "rgb_timestamp", F, 1, name);
   const auto depth_ts = ReadColumn<double>(frames, "depth_timestamp", F, 1, name);
   const auto rgb_paths = ReadH5StringArray(frames, "rgb_path", name);
@@ -153,7 +155,7 @@ FeaturesFile ReadFeaturesFile(const std::filesystem::path& path) {
     out.frames[f] = {rgb_ts[f],      depth_ts[f],  rgb_paths[f],
                      depth_paths[f], o.offsets[f], o.offsets[f + 1]};
   }
-  H5::Group kps = o.file.openGroup("keypoints");
+  H5::Group kps = OpenGroup(file, "keypoints", name);
   const auto pixel = ReadColumn<float>(kps, "pixel", N, 2, name);
   const auto undistorted = ReadColumn<float>(kps, "undistorted", N, 2, name);
   const auto angle = ReadColumn<float>(kps, "angle", N, 1, name);
@@ -176,12 +178,12 @@ FeaturesFile ReadFeaturesFile(const std::filesystem::path& path) {
   return out;
 }
 
-std::vector<OrbDescriptor> ReadFeatureDescriptors(const std::filesystem::path& path,
-                                                  size_t stride) {
-  const std::string name = path.string();
+// The body of ReadFeatureDescriptors and ReadFeatureDescriptorsImage.
+std::vector<OrbDescriptor> ReadDescriptors(const H5::H5File& file, const std::string& name,
+                                           size_t stride) {
   if (stride == 0) stride = 1;
-  OpenedFeatures o = OpenFeatures(path);
-  H5::Group kps = o.file.openGroup("keypoints");
+  const FeaturesLayout o = ReadLayout(file, name);
+  H5::Group kps = OpenGroup(file, "keypoints", name);
   std::vector<OrbDescriptor> all(o.num_keypoints);
   if (!all.empty()) ReadH5Array(kps, "descriptor", all.data(), H5::PredType::NATIVE_UINT8, name);
   if (stride == 1) return all;
@@ -190,6 +192,45 @@ std::vector<OrbDescriptor> ReadFeatureDescriptors(const std::filesystem::path& p
     selected.insert(selected.end(), all.begin() + o.offsets[f], all.begin() + o.offsets[f + 1]);
   }
   return selected;
+}
+
+// Runs `read` on an opened file, turning the HDF5 errors of a damaged file
+// (an unreadable group or attribute) into a DataError naming it.
+template <typename Read>
+auto ReadOrDataError(const std::string& name, Read read) {
+  try {
+    return read();
+  } catch (const H5::Exception& e) {
+    throw DataError(name + ": HDF5 read failed (corrupt file?): " + e.getDetailMsg());
+  }
+}
+
+}  // namespace
+
+FeaturesFile ReadFeaturesFile(const std::filesystem::path& path) {
+  const std::string name = path.string();
+  H5FormatInfo info;
+  const H5::H5File file = OpenH5File(path, kFeaturesFormat, &info);
+  return ReadOrDataError(name, [&] { return ReadFeatures(file, info, name); });
+}
+
+FeaturesFile ReadFeaturesFileImage(std::span<const uint8_t> bytes, const std::string& name) {
+  H5FormatInfo info;
+  const H5::H5File file = OpenH5FileImage(bytes, kFeaturesFormat, name, &info);
+  return ReadOrDataError(name, [&] { return ReadFeatures(file, info, name); });
+}
+
+std::vector<OrbDescriptor> ReadFeatureDescriptors(const std::filesystem::path& path,
+                                                  size_t stride) {
+  const std::string name = path.string();
+  const H5::H5File file = OpenH5File(path, kFeaturesFormat);
+  return ReadOrDataError(name, [&] { return ReadDescriptors(file, name, stride); });
+}
+
+std::vector<OrbDescriptor> ReadFeatureDescriptorsImage(std::span<const uint8_t> bytes,
+                                                       const std::string& name, size_t stride) {
+  const H5::H5File file = OpenH5FileImage(bytes, kFeaturesFormat, name);
+  return ReadOrDataError(name, [&] { return ReadDescriptors(file, name, stride); });
 }
 
 }  // namespace rrslam

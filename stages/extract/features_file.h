@@ -80,12 +80,23 @@ void WriteFeaturesFile(const std::filesystem::path& path, const FeaturesFile& fe
 
 // Reads a whole features file. Throws NoInputError when missing, DataError
 // when it is not a rrslam.features file of a supported version or is
-// inconsistent (offsets out of range, array lengths that disagree).
+// inconsistent (offsets out of range, array lengths that disagree); HDF5
+// errors in a damaged file are DataErrors too.
 FeaturesFile ReadFeaturesFile(const std::filesystem::path& path);
 
+// The same from the bytes of a features file held in memory (an HDF5 file
+// image, see OpenH5FileImage; used by the fuzz target). `name` stands for the
+// file in messages. Throws DataError as ReadFeaturesFile.
+FeaturesFile ReadFeaturesFileImage(std::span<const uint8_t> bytes, const std::string& name);
+
 // Reads only the descriptors of every `stride`-th frame (for vocabulary
-// training), without the keypoints.
+// training), without the keypoints. Errors as ReadFeaturesFile.
 std::vector<OrbDescriptor> ReadFeatureDescriptors(const std::filesystem::path& path,
                                                   size_t stride = 1);
+
+// The same from the bytes of a features file held in memory (see
+// ReadFeaturesFileImage).
+std::vector<OrbDescriptor> ReadFeatureDescriptorsImage(std::span<const uint8_t> bytes,
+                                                       const std::string& name, size_t stride = 1);
 
 }  // namespace rrslam

@@ -128,5 +128,56 @@ TEST(FeaturesFile, WriteToMissingFolderFailsWithoutOutput) {
   EXPECT_FALSE(std::filesystem::exists(dir / "no"));
 }
 
+TEST(FeaturesFile, ReadsFromMemoryAsFromDisk) {
+  testing::TempDir dir;
+  const FeaturesFile written = MakeFeatures(3, 20, 6);
+  WriteFeaturesFile(dir / "f.h5", written, "p", {{"k", 1}});
+  const std::string text = ReadFileToString(dir / "f.h5");
+  const std::vector<uint8_t> bytes(text.begin(), text.end());
+  const FeaturesFile from_disk = ReadFeaturesFile(dir / "f.h5");
+  const FeaturesFile from_memory = ReadFeaturesFileImage(bytes, "mem.h5");
+  ASSERT_EQ(from_memory.num_frames(), from_disk.num_frames());
+  EXPECT_EQ(from_memory.descriptors, from_disk.descriptors);
+  EXPECT_EQ(from_memory.frames.back().rgb_path, written.frames.back().rgb_path);
+  EXPECT_EQ(from_memory.settings_yaml, written.settings_yaml);
+  EXPECT_EQ(from_memory.format.options["k"], 1);
+  EXPECT_EQ(ReadFeatureDescriptorsImage(bytes, "mem.h5", 2),
+            ReadFeatureDescriptors(dir / "f.h5", 2));
+  try {
+    ReadFeaturesFileImage(std::vector<uint8_t>(bytes.begin(), bytes.begin() + 100), "mem.h5");
+    FAIL() << "a truncated image was read";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("mem.h5"), std::string::npos) << e.what();
+  }
+}
+
+// Found by stages/extract/fuzz/features_fuzzer.cc: a damaged file whose
+// "frames" or "keypoints" is a dataset, not a group, made libhdf5's
+// exception escape the reader (exit 70 instead of 65).
+TEST(FeaturesFile, ObjectsOfTheWrongKindAreDataErrors) {
+  testing::TempDir dir;
+  for (const char* name : {"frames", "keypoints"}) {
+    const std::filesystem::path path = dir / (std::string(name) + ".h5");
+    {
+      H5::H5File file = CreateH5File(path);
+      WriteFormatAttributes(file, kFeaturesFormat, "p", {});
+      H5::Group root = file.openGroup("/");
+      H5::Group frames =
+          CreateH5Group(root, std::string(name) == "frames" ? "keypoints" : "frames");
+      const std::vector<uint64_t> one = {0};
+      WriteH5Array<uint64_t>(frames, "keypoint_offset", one, {1});
+      WriteH5Array<uint64_t>(root, name, one, {1});
+    }
+    try {
+      ReadFeaturesFile(path);
+      FAIL() << name << " as a dataset was read";
+    } catch (const DataError& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("missing group ") + name), std::string::npos)
+          << e.what();
+    }
+    EXPECT_THROW(ReadFeatureDescriptors(path), DataError) << name;
+  }
+}
+
 }  // namespace
 }  // namespace rrslam

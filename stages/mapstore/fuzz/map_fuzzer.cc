@@ -8,13 +8,13 @@
 // to bytes that parse to a map encoding to the same bytes.
 #include <cstdint>
 #include <cstdlib>
-#include <cstring>
 #include <span>
 #include <vector>
 
 #include "common/binary_header.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/fuzz/repair_header.h"
 #include "stages/mapstore/map_file.h"
 
 namespace {
@@ -29,40 +29,38 @@ void Exercise(std::span<const uint8_t> bytes) {
     (void)rrslam::ParseMapMeta(bytes, "fuzz-input");
   } catch (const rrslam::Error&) {
   }
+  rrslam::MapData map;
   try {
-    const rrslam::MapData map = rrslam::ParseMap(bytes, "fuzz-input");
-    const std::vector<uint8_t> encoded = rrslam::EncodeMap(map);
-    const rrslam::MapData again = rrslam::ParseMap(encoded, "re-encoded");  // Must not throw.
-    Check(rrslam::EncodeMap(again) == encoded);
+    map = rrslam::ParseMap(bytes, "fuzz-input");
   } catch (const rrslam::Error&) {
+    return;
   }
+  // Outside the try: an error reading back what EncodeMap wrote is a finding.
+  const std::vector<uint8_t> encoded = rrslam::EncodeMap(map);
+  const rrslam::MapData again = rrslam::ParseMap(encoded, "re-encoded");
+  Check(rrslam::EncodeMap(again) == encoded);
 }
 
-// Makes the header and checksums of `file` consistent, where its layout
-// allows; false when the header or table cannot be located.
+// Makes the header and every checksum of `file` consistent where its layout
+// allows (common/fuzz/repair_header.h): the base header, and the XXH3 of each
+// section table entry (uint32 count at offset 40, then 40-byte entries from
+// offset 48 whose bytes 16, 24 and 32 are offset, size and checksum) that
+// lies inside the payload. False when the header cannot be located.
 bool Repair(std::vector<uint8_t>* file) {
-  constexpr size_t kBase = rrslam::kBaseHeaderSize;
-  if (file->size() < kBase + 8) return false;
-  uint8_t* p = file->data();
-  std::memcpy(p, rrslam::kMapFormat.magic, 8);
-  rrslam::StoreLittleEndian<uint16_t>(p + 8, rrslam::kMapFormat.major);
-  const uint32_t header_size = rrslam::LoadLittleEndian<uint32_t>(p + 12);
-  if (header_size < kBase + 8 || header_size > file->size()) return false;
-  const uint64_t payload_size = file->size() - header_size;
-  rrslam::StoreLittleEndian<uint64_t>(p + 16, payload_size);
-  uint8_t* payload = p + header_size;
-  const uint32_t count = rrslam::LoadLittleEndian<uint32_t>(p + kBase);
-  for (uint64_t i = 0; i < count && kBase + 8 + 40 * (i + 1) <= header_size; ++i) {
-    uint8_t* e = p + kBase + 8 + 40 * i;
-    const uint64_t offset = rrslam::LoadLittleEndian<uint64_t>(e + 16);
-    const uint64_t size = rrslam::LoadLittleEndian<uint64_t>(e + 24);
-    if (offset > payload_size || size > payload_size - offset) continue;
-    rrslam::StoreLittleEndian<uint64_t>(e + 32, rrslam::Checksum64({payload + offset, size}));
-  }
-  rrslam::StoreLittleEndian<uint64_t>(p + 24, rrslam::Checksum64({payload, payload_size}));
-  rrslam::StoreLittleEndian<uint64_t>(p + 32, 0);
-  rrslam::StoreLittleEndian<uint64_t>(p + 32, rrslam::Checksum64({p, header_size}));
-  return true;
+  constexpr uint32_t kBase = rrslam::kBaseHeaderSize;
+  return rrslam::fuzz::RepairBinaryHeader(
+      file, rrslam::kMapFormat, kBase + 8,
+      [](std::span<uint8_t> header, std::span<const uint8_t> payload) {
+        const uint32_t count = rrslam::LoadLittleEndian<uint32_t>(header.data() + kBase);
+        for (uint64_t i = 0; i < count && kBase + 8 + 40 * (i + 1) <= header.size(); ++i) {
+          uint8_t* e = header.data() + kBase + 8 + 40 * i;
+          const uint64_t offset = rrslam::LoadLittleEndian<uint64_t>(e + 16);
+          const uint64_t size = rrslam::LoadLittleEndian<uint64_t>(e + 24);
+          if (offset > payload.size() || size > payload.size() - offset) continue;
+          rrslam::StoreLittleEndian<uint64_t>(e + 32,
+                                              rrslam::Checksum64(payload.subspan(offset, size)));
+        }
+      });
 }
 
 }  // namespace
