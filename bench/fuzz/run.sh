@@ -5,8 +5,9 @@
 #                (name and seed corpus of each, written by CMake's
 #                rrslam_add_fuzz_test)
 #   SECONDS      run time of each target
-#   RESULTS_DIR  receives fuzz-<date>.txt (or fuzz-<date>-<SECONDS>s.txt for
-#                runs shorter than 600 s): the machine line, the command, and
+#   RESULTS_DIR  receives fuzz-<date>.txt (fuzz-<date>-<SECONDS>s.txt for runs
+#                shorter than 600 s, and -<name> appended for each NAME given):
+#                the machine line, the command, and
 #                per target the seconds, executions, executions per second,
 #                coverage (libFuzzer's cov: edges and ft: features), corpus
 #                size and findings
@@ -32,6 +33,7 @@ fi
 mkdir -p "$results"
 date=$(date -u +%Y-%m-%d)
 suffix=$([[ $seconds -lt 600 ]] && echo "-${seconds}s" || true)
+for name in "$@"; do suffix+="-${name%_fuzzer}"; done
 out=$results/fuzz-$date$suffix.txt
 machine=$("$here/../machine.sh")
 load=$(cut -d' ' -f1-3 /proc/loadavg)
