@@ -11,6 +11,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "common/text.h"
+
 namespace rrslam::testing {
 namespace fs = std::filesystem;
 
@@ -37,6 +39,13 @@ fs::path BinDir() {
   const char* env = std::getenv("RRSLAM_BIN_DIR");
   return env != nullptr ? fs::path(env) : fs::path("build/bin");
 }
+
+fs::path SourceDir() {
+  if (const char* env = std::getenv("RRSLAM_SOURCE_DIR")) return env;
+  return fs::path(__FILE__).parent_path().parent_path();
+}
+
+std::string Quote(const fs::path& path) { return ShellQuote(path.string()); }
 
 CommandResult RunCommand(const std::string& command_line) {
   CommandResult result;

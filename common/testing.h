@@ -29,6 +29,13 @@ std::optional<std::filesystem::path> SharedDataDir();
 // Folder of the rrslam-* executables (RRSLAM_BIN_DIR).
 std::filesystem::path BinDir();
 
+// Root of the source tree (RRSLAM_SOURCE_DIR, else the tree this file was
+// compiled from): for tests that run its Makefile or scripts.
+std::filesystem::path SourceDir();
+
+// `path` single-quoted for a shell command line (ShellQuote).
+std::string Quote(const std::filesystem::path& path);
+
 struct CommandResult {
   int exit_code = -1;
   std::string output;  // stdout and stderr together.

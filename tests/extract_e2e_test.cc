@@ -19,8 +19,7 @@ namespace rrslam {
 namespace {
 namespace fs = std::filesystem;
 
-// Single-quoted for the shell (test paths hold no quotes).
-std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
+using testing::Quote;
 
 struct FeaturesSummary {
   H5FormatInfo info;

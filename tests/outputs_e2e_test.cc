@@ -18,7 +18,7 @@ namespace {
 namespace fs = std::filesystem;
 using testing::RunTool;
 
-std::string Q(const fs::path& p) { return ShellQuote(p.string()); }
+using testing::Quote;
 
 class OutputsTest : public ::testing::Test {
  protected:
@@ -56,38 +56,41 @@ class OutputsTest : public ::testing::Test {
 };
 
 TEST_F(OutputsTest, TrackNeverReplacesTheSequenceFolder) {
-  const std::string common = "--sequence " + Q(seq()) + " --settings " +
-                             Q(seq() / "settings.yaml") + " --vocab " + Q(dir_ / "voc.rrv");
-  ExpectRefused("track", common + " --out " + Q(seq()), seq());
-  ExpectRefused("track", common + " --out " + Q(dir_.path()), seq());  // A parent of it.
-  ExpectRefused("track", common + " --out " + Q(seq() / ".." / "seq"), seq());
-  ExpectRefused("track", common + " --out " + Q(dir_ / "t") + " --save-map " + Q(dir_ / "voc.rrv"),
-                dir_ / "voc.rrv");
+  const std::string common = "--sequence " + Quote(seq()) + " --settings " +
+                             Quote(seq() / "settings.yaml") + " --vocab " + Quote(dir_ / "voc.rrv");
+  ExpectRefused("track", common + " --out " + Quote(seq()), seq());
+  ExpectRefused("track", common + " --out " + Quote(dir_.path()), seq());  // A parent of it.
+  ExpectRefused("track", common + " --out " + Quote(seq() / ".." / "seq"), seq());
   ExpectRefused("track",
-                common + " --out " + Q(dir_ / "t") + " --save-map " + Q(dir_ / "t" / "m.rrm"),
-                dir_ / "t");
+                common + " --out " + Quote(dir_ / "t") + " --save-map " + Quote(dir_ / "voc.rrv"),
+                dir_ / "voc.rrv");
+  ExpectRefused(
+      "track",
+      common + " --out " + Quote(dir_ / "t") + " --save-map " + Quote(dir_ / "t" / "m.rrm"),
+      dir_ / "t");
 }
 
 TEST_F(OutputsTest, StagesNeverOverwriteTheirInputs) {
-  ExpectRefused("cluster", "--features " + Q(dir_ / "f.h5") + " --out " + Q(dir_ / "f.h5"),
+  ExpectRefused("cluster", "--features " + Quote(dir_ / "f.h5") + " --out " + Quote(dir_ / "f.h5"),
                 dir_ / "f.h5");
   const std::string extract =
-      "--sequence " + Q(seq()) + " --settings " + Q(seq() / "settings.yaml") + " --out ";
-  ExpectRefused("extract", extract + Q(seq() / "settings.yaml"), seq() / "settings.yaml");
-  ExpectRefused("extract", extract + Q(seq() / "rgb.txt"), seq());
+      "--sequence " + Quote(seq()) + " --settings " + Quote(seq() / "settings.yaml") + " --out ";
+  ExpectRefused("extract", extract + Quote(seq() / "settings.yaml"), seq() / "settings.yaml");
+  ExpectRefused("extract", extract + Quote(seq() / "rgb.txt"), seq());
   ExpectRefused("vocab",
-                "query --vocab " + Q(dir_ / "voc.rrv") + " --features " + Q(dir_ / "f.h5") +
-                    " --frame 0 --out " + Q(dir_ / "f.h5"),
+                "query --vocab " + Quote(dir_ / "voc.rrv") + " --features " + Quote(dir_ / "f.h5") +
+                    " --frame 0 --out " + Quote(dir_ / "f.h5"),
                 dir_ / "f.h5");
   ExpectRefused("vocab",
-                "build --tree " + Q(dir_ / "tree.h5") + " --out " + Q(dir_ / "voc.rrv") +
-                    " --features " + Q(dir_ / "f.h5") + " " + Q(dir_ / "voc.rrv"),
+                "build --tree " + Quote(dir_ / "tree.h5") + " --out " + Quote(dir_ / "voc.rrv") +
+                    " --features " + Quote(dir_ / "f.h5") + " " + Quote(dir_ / "voc.rrv"),
                 dir_ / "voc.rrv");
-  ExpectRefused("eval", "summary " + Q(dir_ / "run") + " --out " + Q(dir_ / "run" / "ate.json"),
+  ExpectRefused("eval",
+                "summary " + Quote(dir_ / "run") + " --out " + Quote(dir_ / "run" / "ate.json"),
                 dir_ / "run");
   ExpectRefused("eval",
-                "ate --gt " + Q(seq() / "groundtruth.txt") + " --est " + Q(dir_ / "f.h5") +
-                    " --out " + Q(seq() / "groundtruth.txt"),
+                "ate --gt " + Quote(seq() / "groundtruth.txt") + " --est " + Quote(dir_ / "f.h5") +
+                    " --out " + Quote(seq() / "groundtruth.txt"),
                 seq() / "groundtruth.txt");
 }
 
@@ -96,13 +99,15 @@ TEST_F(OutputsTest, ALostStdoutIsAnErrorAndCommonFlagsFollowSubcommands) {
       "1.0 0 0 0 0 0 0 1\n2.0 1 0 0 0 0 0 1\n3.0 1 1 0 0 0 0 1\n4.0 0 1 0 0 0 0 1\n";
   testing::WriteTextFile(dir_ / "gt.txt", trajectory);
   testing::WriteTextFile(dir_ / "est.txt", trajectory);
-  const std::string ate = "ate --gt " + Q(dir_ / "gt.txt") + " --est " + Q(dir_ / "est.txt");
+  const std::string ate =
+      "ate --gt " + Quote(dir_ / "gt.txt") + " --est " + Quote(dir_ / "est.txt");
   auto r = RunTool("eval", ate + " --quiet");  // --quiet after the subcommand.
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("absolute_translational_error.rmse"), std::string::npos) << r.output;
   // In a subshell, so that its stderr goes to the file, not to /dev/full.
-  r = testing::RunCommand("(" + Q(testing::BinDir() / "rrslam-eval") + " " + ate + " -v 2> " +
-                          Q(dir_ / "stderr.txt") + " > /dev/full)");
+  const std::string eval = Quote(testing::BinDir() / "rrslam-eval");
+  r = testing::RunCommand("(" + eval + " " + ate + " -v 2> " + Quote(dir_ / "stderr.txt") +
+                          " > /dev/full)");
   EXPECT_EQ(r.exit_code, 73) << r.output;
   EXPECT_NE(ReadFileToString(dir_ / "stderr.txt").find("cannot write to standard output"),
             std::string::npos);

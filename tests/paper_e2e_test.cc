@@ -19,12 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path SourceDir() {
-  if (const char* env = std::getenv("RRSLAM_SOURCE_DIR")) return env;
-  return fs::path(__FILE__).parent_path().parent_path();
-}
-
-std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
+using testing::Quote;
+using testing::SourceDir;
 
 bool Contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;

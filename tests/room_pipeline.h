@@ -8,11 +8,8 @@
 #include <string>
 
 #include "common/testing.h"
-#include "common/text.h"
 
 namespace rrslam::testing {
-
-inline std::string Quote(const std::filesystem::path& p) { return ShellQuote(p.string()); }
 
 // Renders sequence DIR/room with rrslam-synth `synth_args` (320 x 240 keeps
 // rendering and extraction quick) and trains DIR/room.rrv on it

@@ -40,7 +40,7 @@ Trajectory Moved(Trajectory trajectory, double time_shift = 0) {
   return trajectory;
 }
 
-std::string Quote(const fs::path& p) { return ShellQuote(p.string()); }
+using testing::Quote;
 
 // stdout only (stderr dropped), for JSON.
 testing::CommandResult RunStdout(const std::string& args) {
