@@ -9,6 +9,7 @@
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
+#include "common/yaml_text.h"
 
 namespace rrslam {
 namespace {
@@ -47,60 +48,11 @@ std::string ReadSettingsText(const std::filesystem::path& path) {
   return ReadFileToString(path);
 }
 
-// Settings are one YAML document holding a block map whose keys start at
-// column 0 (ORB-SLAM2's layout). Text of another shape is rejected here,
-// before OpenCV's YAML parser (4.6) sees it: that parser loops forever when,
-// after a top-level collection, a line starts left of it or a new document
-// does not open with "---" (its parse() then waits on a '-' that is not
-// "---"). Found by common/fuzz/settings_fuzzer.cc, e.g.
-// "%YAML:1.0\n----=\n----\n" and "%YAML:1.0\n -%\n:#:-\n". Rejected: a
-// first key line that is indented or starts with '-' (a top-level list), and
-// any later line at column 0 that starts with '-' or "..." (a list item, a
-// second document, an end of document). One "---" line may open the
-// document; blank lines, comments and %-directives are not looked at.
-void CheckOneYamlMap(std::string_view text, const std::string& name) {
-  bool first = true;    // No key line yet.
-  bool opened = false;  // The "---" marker was seen.
-  int line = 0;
-  for (size_t begin = 0; begin < text.size();) {
-    size_t end = text.find('\n', begin);
-    if (end == std::string_view::npos) end = text.size();
-    std::string_view l = text.substr(begin, end - begin);
-    begin = end + 1;
-    ++line;
-    while (!l.empty() && (l.back() == '\r' || l.back() == ' ')) l.remove_suffix(1);
-    const size_t content = l.find_first_not_of(' ');
-    if (content == std::string_view::npos || l[content] == '#' || l.front() == '%') continue;
-    auto fail = [&](const std::string& what) {
-      throw DataError(name + ": line " + std::to_string(line) + ": '" +
-                      std::string(l.substr(0, 24)) + "' " + what +
-                      " (settings are one YAML document holding a map of keys at column 0)");
-    };
-    if (first && !opened && l.substr(0, 3) == "---" &&
-        (l.size() == 3 || l.find_first_not_of(' ', 3) == std::string_view::npos ||
-         l[l.find_first_not_of(' ', 3)] == '#')) {
-      opened = true;  // The document's opening marker.
-      continue;
-    }
-    if (first && content > 0) fail("is indented");
-    if (l.front() == '-') fail("starts with '-' (a list or a second document)");
-    if (l.substr(0, 3) == "...") fail("ends the document");
-    first = false;
-  }
-}
-
 // Settings text as OpenCV YAML; DataError naming `name` when it is not.
 cv::FileStorage OpenSettingsYaml(const std::string& text, const std::string& name) {
   if (text.empty()) throw DataError(name + ": empty settings file");
-  CheckOneYamlMap(text, name);
-  cv::FileStorage fs;
-  try {
-    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-  } catch (const cv::Exception&) {
-    throw DataError(name + ": not a valid settings YAML file");
-  }
-  if (!fs.isOpened()) throw DataError(name + ": not a valid settings YAML file");
-  return fs;
+  return ParseYamlText(text, name,
+                       "settings are one YAML document holding a map of keys at column 0");
 }
 
 std::string Fmt(const char* format, double value) {

@@ -3,6 +3,7 @@
 #   vocab_binary_fuzzer   the binary vocabulary loader (rrslam.vocabulary), past
 #                         its checksums (common/fuzz/repair_header.h)
 #   vocab_text_fuzzer     the DBoW2 text vocabulary parser
+#   vocab_yaml_fuzzer     the DBoW2 YAML vocabulary parser (.yml, .yml.gz)
 #   map_fuzzer            the map file reader (rrslam.map), past its checksums
 #   settings_fuzzer       the settings YAML reader (ParseSettings, ParseViewpoint)
 #   tum_lists_fuzzer      rgb.txt / depth.txt lists, associations files, pairing
@@ -39,7 +40,8 @@ fuzz-run: fuzz
 
 # Each seed test writes its corpus under the folder RRSLAM_WRITE_FUZZ_SEEDS
 # names and checks it reads back; the vocabulary seeds are the DBoW2 texts of
-# stages/vocab/fuzz/corpus and their binary forms.
+# stages/vocab/fuzz/corpus, their binary forms, and in corpus_yaml/ their
+# DBoW2 YAML forms (k4_l3 gzip-compressed).
 fuzz-seeds: $(BUILD_DIR)/CMakeCache.txt
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target common_text_seeds extract_features_seeds \
 	  cluster_vocab_tree_seeds mapstore_map_file rrslam-vocab
@@ -50,4 +52,9 @@ fuzz-seeds: $(BUILD_DIR)/CMakeCache.txt
 	  --gtest_filter=MapFile.WriteFuzzSeeds
 	for f in stages/vocab/fuzz/corpus/*.txt; do \
 	  $(BIN)/rrslam-vocab --quiet convert "$$f" "$${f%.txt}.rrv" || exit 1; \
+	done
+	mkdir -p stages/vocab/fuzz/corpus_yaml
+	for v in k3_l2.yml k4_l3.yml.gz two_words.yml; do \
+	  $(BIN)/rrslam-vocab --quiet convert stages/vocab/fuzz/corpus/$${v%%.*}.txt \
+	    stages/vocab/fuzz/corpus_yaml/$$v || exit 1; \
 	done

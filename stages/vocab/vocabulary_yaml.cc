@@ -6,7 +6,6 @@
 #include <charconv>
 #include <cmath>
 #include <opencv2/core.hpp>
-#include <regex>
 #include <stdexcept>
 #include <string_view>
 #include <vector>
@@ -14,6 +13,7 @@
 #include "common/atomic_file.h"
 #include "common/binary_header.h"
 #include "common/errors.h"
+#include "common/yaml_text.h"
 
 namespace rrslam {
 namespace {
@@ -99,21 +99,6 @@ std::string Gzip(std::string_view text, const std::filesystem::path& path) {
   deflateEnd(&z);
   if (status != Z_STREAM_END) throw CantCreateError(path.string() + ": zlib deflate failed");
   return out;
-}
-
-// "line N: what" from an OpenCV YAML parser error. OpenCV 4 formats
-// "<file>(<line>): <what>" and passes it as the exception's function name
-// (FileStorage::Impl::parseError swaps its arguments), with the parser
-// function's name as the message; look in both.
-std::string YamlSyntaxError(const cv::Exception& e) {
-  static const std::regex kLine(R"(\((\d+)\): ([^\n]*))");
-  for (const std::string* text : {&e.func, &e.err}) {
-    std::smatch m;
-    if (std::regex_search(*text, m, kLine)) return "line " + m[1].str() + ": " + m[2].str();
-  }
-  std::string text = e.err;
-  std::replace(text.begin(), text.end(), '\n', ' ');
-  return text;
 }
 
 // Reads the keys of a DBoW2 YAML vocabulary, throwing DataError with the
@@ -326,13 +311,9 @@ VocabularyData ParseYamlVocabulary(std::span<const uint8_t> bytes, const std::st
   std::string text = IsGzip(bytes)
                          ? Gunzip(bytes, source)
                          : std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size());
-  cv::FileStorage fs;
-  try {
-    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-  } catch (const cv::Exception& e) {
-    throw DataError(source + ": not a valid YAML file: " + YamlSyntaxError(e));
-  }
-  if (!fs.isOpened()) throw DataError(source + ": not a valid YAML file");
+  cv::FileStorage fs = ParseYamlText(
+      text, source,
+      "a DBoW2 YAML vocabulary is one YAML document holding the map 'vocabulary' at column 0");
   std::string().swap(text);  // FileStorage holds its own parsed tree.
   try {
     return ReadYamlTree(fs, source);

@@ -257,6 +257,32 @@ TEST(YamlVocabulary, RejectsMissingKeysAndBadHeaders) {
   ExpectYamlError(kHeader + HandNodes() + "   words: 7\n", "vocabulary: words is not a list");
 }
 
+// OpenCV's YAML parser (4.6) never returns on some text that is not one map
+// at column 0 (common/yaml_text.h); a DBoW2 YAML vocabulary is such a map,
+// so other shapes are refused before OpenCV sees them, plain or gzip.
+TEST(YamlVocabulary, RejectsShapesOpenCvWouldLoopOn) {
+  ExpectYamlError("%YAML:1.0\n----=\n----\n\n", "line 2: '----=' starts with '-'");
+  ExpectYamlError("%YAML:1.0\n -%\n:#:-\n\n", "line 2: ' -%' is indented");
+  ExpectYamlError(HandYaml() + "---\nvocabulary: 1\n", "'---' starts with '-'");
+  ExpectYamlError(HandYaml() + "...\n", "'...' ends the document");
+  ExpectYamlError("%YAML:1.0\n---\n   vocabulary:\n", "is indented");
+  // An empty key in a flow map: OpenCV's parser throws std::length_error
+  // (found by vocab_yaml_fuzzer); a DataError like any syntax error.
+  ExpectYamlError(Edited("{ nodeId:1,", "{ :odeId:1,"), "bad.yml: not a valid YAML file (");
+  // Gzip-compressed: the check runs on the inflated text.
+  const testing::TempDir dir;
+  const VocabularyData hand = ParseYamlVocabulary(Bytes(HandYaml()), "ok.yml");
+  WriteYamlVocabulary(dir / "ok.yml.gz", hand.view(), "ok");
+  const std::string gz = ReadFileToString(dir / "ok.yml.gz");
+  EXPECT_NO_THROW(ParseYamlVocabulary(Bytes(gz), "ok.yml.gz"));
+  try {
+    ParseYamlVocabulary(Bytes(gz + gz), "bad.yml.gz");  // Two gzip members: two documents.
+    ADD_FAILURE() << "accepted two documents";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yml.gz: line "), std::string::npos) << e.what();
+  }
+}
+
 TEST(YamlVocabulary, RejectsBadNodesNamingTheNode) {
   // Ids.
   ExpectYamlError(Edited("nodeId:6,", "nodeId:7,"), "nodes entry 3: nodeId = 7 is not in [1, 6]");
