@@ -9,7 +9,8 @@
 #   make bench      benchmarks, results in bench/results/
 #   make fuzz       build the libFuzzer targets (build-fuzz/)
 #   make test-tsan  the track tests under ThreadSanitizer (build-tsan/)
-#   make test-asan  the track tests under AddressSanitizer (build-asan/)
+#   make test-asan  every test under ASan + UBSan (build-asan/)
+#   make test-asan-readers  the reader stages' tests under ASan + UBSan (CI)
 #   make format     clang-format every source file
 #   make deps       install missing Debian packages only
 
@@ -24,12 +25,12 @@ DATA_ROOT ?= data
 SHARED_DATA ?= $(abspath ../shared/data)
 BIN := $(BUILD_DIR)/bin
 
-.PHONY: all build deps configure test test-tsan test-asan demo bench fuzz format clean help
+.PHONY: all build deps configure test test-tsan test-asan test-asan-readers demo bench fuzz format clean help
 
 all: build
 
 help:
-	@sed -n '2,14p' Makefile | sed 's/^# \{0,1\}//'
+	@sed -n '2,15p' Makefile | sed 's/^# \{0,1\}//'
 
 deps:
 	@scripts/install-deps.sh
@@ -45,35 +46,72 @@ build: configure
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)
 
-# --- Sanitizer builds of the track tests --------------------------------------
-# The track stage's tests (CTest track/*) and its end-to-end tests (e2e/track,
-# which runs rrslam-track --mode realtime, with local mapping in its own
-# thread; e2e/map, which also maps on a loaded map in realtime mode), built
-# with -DRRSLAM_SANITIZE=thread / address in a tree of their own (build/ is
-# not touched) and run there; the tests run the tools of that tree's bin/, so
-# every rrslam-* they start is instrumented too. The e2e tests also run
-# rrslam-synth, -extract, -cluster, -vocab, -eval and -mapstore. Each report goes to
+# --- Sanitizer builds -----------------------------------------------------------
+# Each in a tree of its own (build/ is not touched), configured with
+# -DRRSLAM_SANITIZE=thread / address; the tests run the tools of that tree's
+# bin/, so every rrslam-* they start is instrumented too. Each report goes to
 # build-<x>san/sanitizer-logs/ (a test that checks only an exit code would
-# swallow it), is printed at the end, and fails the target. tests/tsan.supp
-# lists the third-party reports TSan may ignore, each with its reason.
-SANITIZER_TARGETS := track-tests e2e_track e2e_map rrslam-synth rrslam-extract rrslam-cluster \
-                     rrslam-vocab rrslam-eval rrslam-mapstore
-SANITIZER_TESTS := ^(track/|e2e/track$$|e2e/map$$)
+# swallow it), is printed at the end, and fails the target.
+#
+# make test-tsan: ThreadSanitizer on the track stage's tests (CTest track/*)
+# and its end-to-end tests (e2e/track, which runs rrslam-track --mode
+# realtime, with local mapping in its own thread; e2e/map, which also maps on
+# a loaded map in realtime mode), which also run rrslam-synth, -extract,
+# -cluster, -vocab, -eval and -mapstore. tests/tsan.supp lists the
+# third-party reports TSan may ignore, each with its reason.
+#
+# make test-asan: AddressSanitizer + LeakSanitizer + UndefinedBehaviorSanitizer
+# on every target and the whole CTest suite; undefined behaviour aborts like an
+# ASan error. GCC's UBSan runtime (libubsan.so, apart from libasan.so) writes
+# its own report to stderr whatever its log_path, where a test that runs a
+# tool could swallow it; so UBSan aborts (abort_on_error=1) and ASan reports
+# the SIGABRT (handle_abort=1) with the whole stack into the log, whose frames
+# name the check (__ubsan_handle_<check>_abort) and the line. UBSAN_OPTIONS
+# must carry ASan's log_path: libubsan sets the report path through the
+# function libasan exports, so its default (stderr) would redirect ASan's
+# reports too. The fuzz tests (<module>/fuzz_<name>) run clang
+# libFuzzer programs with their own ASan+UBSan, as in `make test`.
+# tests/lsan.supp and tests/ubsan.supp list the third-party reports to
+# ignore, each with its reason.
+# CTEST_ARGS narrows either run, e.g. make test-asan CTEST_ARGS='-R ^track/'.
+SANITIZER_TARGETS_tsan := track-tests e2e_track e2e_map rrslam-synth rrslam-extract rrslam-cluster \
+                          rrslam-vocab rrslam-eval rrslam-mapstore
+SANITIZER_TARGETS_asan := all
+SANITIZER_TESTS_tsan := ^(track/|e2e/track$$|e2e/map$$)
+SANITIZER_TESTS_asan := .
 TSAN_OPTIONS ?= halt_on_error=1 second_deadlock_stack=1
-ASAN_OPTIONS ?= halt_on_error=1 detect_leaks=1
+ASAN_OPTIONS ?= halt_on_error=1 detect_leaks=1 check_initialization_order=1 strict_init_order=1
+UBSAN_OPTIONS ?= halt_on_error=1 print_stacktrace=1
+LSAN_OPTIONS ?= print_suppressions=0
+
+# make test-asan-readers: the same, on the tests of the stages that read
+# users' files (common, extract, cluster, vocab, mapstore, eval) and the tools
+# they run; what CI runs (.ci/run), as the whole suite under ASan takes too long
+# there (README.md has the figures).
+ASAN_READERS_TARGETS := common-tests extract-tests cluster-tests vocab-tests mapstore-tests \
+                        eval-tests rrslam-synth rrslam-extract rrslam-cluster rrslam-vocab \
+                        rrslam-eval rrslam-mapstore
+ASAN_READERS_TESTS := ^(common|extract|cluster|vocab|mapstore|eval)/
 
 build-tsan/CMakeCache.txt build-asan/CMakeCache.txt: build-%/CMakeCache.txt: | deps
 	cmake -S . -B build-$* -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) -DRRSLAM_DATA_DIR=$(SHARED_DATA) \
 	  -DRRSLAM_SANITIZE=$(if $(filter tsan,$*),thread,address)
 
 test-tsan test-asan: test-%: build-%/CMakeCache.txt
-	cmake --build build-$* -j $(JOBS) --target $(SANITIZER_TARGETS)
+	cmake --build build-$* -j $(JOBS) --target $(SANITIZER_TARGETS_$*)
 	logs=$(CURDIR)/build-$*/sanitizer-logs; rm -rf $$logs; mkdir -p $$logs; \
 	  cd build-$* || exit 1; status=0; \
-	  TSAN_OPTIONS="$(TSAN_OPTIONS) suppressions=$(CURDIR)/tests/tsan.supp log_path=$$logs/tsan" ASAN_OPTIONS="$(ASAN_OPTIONS) log_path=$$logs/asan" \
-	    ctest --output-on-failure -j $(JOBS) -R '$(SANITIZER_TESTS)' $(CTEST_ARGS) || status=$$?; \
+	  TSAN_OPTIONS="$(TSAN_OPTIONS) suppressions=$(CURDIR)/tests/tsan.supp log_path=$$logs/tsan" \
+	  ASAN_OPTIONS="$(ASAN_OPTIONS) handle_abort=1 log_path=$$logs/asan" \
+	  UBSAN_OPTIONS="$(UBSAN_OPTIONS) abort_on_error=1 suppressions=$(CURDIR)/tests/ubsan.supp log_path=$$logs/asan" \
+	  LSAN_OPTIONS="$(LSAN_OPTIONS) suppressions=$(CURDIR)/tests/lsan.supp" \
+	    ctest --output-on-failure -j $(JOBS) -R '$(SANITIZER_TESTS_$*)' $(CTEST_ARGS) || status=$$?; \
 	  for report in $$(ls $$logs); do echo "=== $$logs/$$report"; cat $$logs/$$report; status=1; done; \
 	  exit $$status
+
+test-asan-readers:
+	$(MAKE) test-asan SANITIZER_TARGETS_asan="$(ASAN_READERS_TARGETS)" \
+	  SANITIZER_TESTS_asan='$(ASAN_READERS_TESTS)'
 
 format:
 	find common stages tests bench -name '*.cc' -o -name '*.h' | xargs clang-format -i

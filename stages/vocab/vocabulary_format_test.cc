@@ -189,7 +189,9 @@ struct AlignedFile {
   size_t size = 0;
   explicit AlignedFile(const std::vector<uint8_t>& bytes)
       : storage(bytes.size() / 32 + 1), size(bytes.size()) {
-    std::memcpy(static_cast<void*>(storage.data()), bytes.data(), bytes.size());
+    // An empty vector's data() may be null, which memcpy may not be passed
+    // even for 0 bytes (UBSan: nonnull-attribute).
+    if (!bytes.empty()) std::memcpy(static_cast<void*>(storage.data()), bytes.data(), bytes.size());
   }
   std::span<const uint8_t> span() const {
     return {reinterpret_cast<const uint8_t*>(storage.data()), size};
