@@ -35,7 +35,8 @@
 #
 # Variables: PAPER_ROOT, PAPER_DATA, PAPER_SYNTH (loop shake), PAPER_SYNTH_FRAMES
 # (300), PAPER_TRANSFER (the first real sequence), PAPER_STARTUP_RUNS (5),
-# PAPER_VOCABS, PAPER_ORBVOC (1), and
+# PAPER_VOCABS, PAPER_ORBVOC (1), PAPER_REFERENCE (a CSV of the seed paper's
+# Table 3/4 figures, "sequence,variant,ate_rmse_cm", printed beside ours), and
 # the vocab and eval pipelines' (VOCAB_K, VOCAB_L, EVAL_MODE, LAUNCHER, ...).
 PAPER_ROOT ?= $(BUILD_DIR)/paper
 PAPER_DATA ?= $(if $(wildcard $(DATA_ROOT)/.),$(DATA_ROOT),$(SHARED_DATA))
@@ -44,6 +45,7 @@ PAPER_SYNTH_FRAMES ?= 300
 PAPER_STARTUP_RUNS ?= 5
 PAPER_VOCABS ?= $(SHARED_DATA)/vocab
 PAPER_ORBVOC ?= 1
+PAPER_REFERENCE ?=
 paper_mk_dir := $(dir $(lastword $(MAKEFILE_LIST)))
 
 .PHONY: paper paper-cells
@@ -175,6 +177,7 @@ $(foreach n,$(paper_real_names),$(eval $(call paper_startup_rules,$(n))))
 
 $(PAPER_ROOT)/report.md: $(paper_mk_dir)paper/report.sh $(PAPER_ROOT)/ate-table.md \
     $(wildcard $(PAPER_ROOT)/vocab-load.csv $(PAPER_ROOT)/startup/*.csv \
-      $(PAPER_ROOT)/figures/*/trajectory_top.png)
+      $(PAPER_ROOT)/figures/*/trajectory_top.png) $(PAPER_REFERENCE)
 	$(paper_mk_dir)paper/report.sh $(BIN) $(PAPER_ROOT) "$(paper_names)" "$(PAPER_TRANSFER)" \
-	  "$(VOCAB_K)" "$(VOCAB_L)" > $@.new && mv -f $@.new $@
+	  "$(VOCAB_K)" "$(VOCAB_L)" "$(PAPER_REFERENCE)" > $@.new || { rm -f $@.new; exit 1; }
+	mv -f $@.new $@

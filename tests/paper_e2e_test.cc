@@ -36,6 +36,8 @@ class PaperPipelineTest : public ::testing::Test {
   }
   fs::path data() const { return dir_.path() / "data"; }
   fs::path root() const { return dir_.path() / "paper"; }
+  // A made-up "seed paper" figure, to check the report prints it beside ours.
+  fs::path reference() const { return dir_.path() / "reference.csv"; }
 
   // `make paper` with the test's executables (no build step); the outer
   // make's job server is not inherited (MAKEFLAGS unset).
@@ -46,7 +48,8 @@ class PaperPipelineTest : public ::testing::Test {
         " BIN=" + Quote(fs::absolute(testing::BinDir())) +
         " SKIP_BUILD=1 PAPER_SYNTH=sweep PAPER_SYNTH_FRAMES=60 VOCAB_K=6 VOCAB_L=3"
         " PAPER_STARTUP_RUNS=1 PAPER_ORBVOC=0 PAPER_VOCABS=" +
-        Quote(SourceDir() / "stages" / "vocab" / "fuzz" / "corpus"));
+        Quote(SourceDir() / "stages" / "vocab" / "fuzz" / "corpus") +
+        " PAPER_REFERENCE=" + Quote(reference()));
   }
 
   testing::TempDir dir_;
@@ -54,6 +57,7 @@ class PaperPipelineTest : public ::testing::Test {
 
 TEST_F(PaperPipelineTest, MakesEveryTableAndFigureAndRerunsNothing) {
   ASSERT_TRUE(fs::exists(SourceDir() / "pipelines" / "paper.mk")) << SourceDir();
+  testing::WriteTextFile(reference(), "sequence,variant,ate_rmse_cm\nroom,own,9.87\n");
   const auto first = MakePaper();
   ASSERT_EQ(first.exit_code, 0) << first.output;
 
@@ -83,10 +87,12 @@ TEST_F(PaperPipelineTest, MakesEveryTableAndFigureAndRerunsNothing) {
   EXPECT_FALSE(fs::exists(root() / "startup/synth-sweep.csv"));
 
   const std::string report = ReadFileToString(root() / "report.md");
-  for (const char* part : {"## Table 1/2", "## Table 3/4", "## Start-up", "145.3", "room",
-                           "synth-sweep", "ate-bars.png", "figures/room/trajectory_top.png"}) {
+  for (const char* part :
+       {"## Table 1/2", "## Table 3/4", "## Start-up", "145.3", "room", "synth-sweep",
+        "ate-bars.png", "figures/room/trajectory_top.png", "| room | own | 9.87 | "}) {
     EXPECT_TRUE(Contains(report, part)) << part;
   }
+  EXPECT_FALSE(Contains(report, "| room | own | 9.87 | not run |")) << report;
 
   // Nothing changed: nothing runs, nothing is rewritten.
   const auto report_time = fs::last_write_time(root() / "report.md");

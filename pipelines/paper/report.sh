@@ -2,9 +2,16 @@
 # Writes the paper report (Markdown) on stdout from the cells `make paper`
 # made under PAPER_ROOT (pipelines/paper.mk): every table, the command and
 # input behind each number, and the seed paper's figures beside ours.
-# Usage: report.sh BIN PAPER_ROOT "SEQUENCES" TRANSFER_SEQUENCE VOCAB_K VOCAB_L
+# Usage: report.sh BIN PAPER_ROOT "SEQUENCES" TRANSFER_SEQUENCE VOCAB_K VOCAB_L [REFERENCE]
+# REFERENCE (PAPER_REFERENCE): a CSV of the seed paper's Table 3/4 figures,
+# "sequence,variant,ate_rmse_cm" with that header line (variant: own, general
+# or transfer), printed beside ours; without it the report says there is none.
 set -euo pipefail
-bin=$1 root=$2 names=$3 transfer=$4 k=$5 levels=$6
+bin=$1 root=$2 names=$3 transfer=$4 k=$5 levels=$6 reference=${7:-}
+if [[ -n $reference && $(head -n 1 "$reference" 2>/dev/null | tr -d '\r') != "sequence,variant,ate_rmse_cm" ]]; then
+  echo "report.sh: $reference: not a PAPER_REFERENCE file (its first line must be sequence,variant,ate_rmse_cm)" >&2
+  exit 65
+fi
 here=$(cd "$(dirname "$0")" && pwd)
 repo=$(cd "$here/../.." && pwd)
 
@@ -59,9 +66,22 @@ else
   echo "Not made: \`ate-table.md\` is missing (see make's output)."
 fi
 echo
-echo "Seed paper: its Table 3/4 measure fr1_room's vocabulary on fr1_xyz, fr1_360, fr2_rpy"
-echo "and fr2_desk; its ATE values are not in the material this project was given, so no"
-echo "figure of the paper is quoted beside these (none is invented)."
+if [[ -n $reference ]]; then
+  echo "Seed paper's figures (from \`$reference\`, PAPER_REFERENCE) beside ours, in cm:"
+  echo
+  echo "| sequence | vocabulary | seed paper | rrslam |"
+  echo "|---|---|---:|---:|"
+  tail -n +2 "$reference" | while IFS=, read -r seq variant paper_cm _; do
+    [[ -z $seq ]] && continue
+    ours=$(awk -F, -v s="$seq" -v v="$variant" '$1 == s && $2 == v { print $3 }' \
+      "$root/ate-table.csv" 2>/dev/null || true)
+    echo "| $seq | $variant | $paper_cm | ${ours:-not run} |"
+  done
+else
+  echo "Seed paper: its Table 3/4 measure fr1_room's vocabulary on fr1_xyz, fr1_360, fr2_rpy"
+  echo "and fr2_desk. Its ATE values are not in the material this project was given, so none"
+  echo "is quoted here; give them as PAPER_REFERENCE=<csv> (docs/paper.md) to print them beside ours."
+fi
 echo
 echo "Vocabulary sizes:"
 echo
