@@ -2,6 +2,7 @@
 #
 #   make            build everything into build/ (executables in build/bin/)
 #   make test       build, then run every test (CTest)
+#   make tools      build only the executables the pipelines run
 #   make demo       run the main job on built-in synthetic data
 #   make vocab DATASET=<name>   train a vocabulary (pipelines/vocab.mk)
 #   make eval-all   evaluate every sequence (pipelines/eval.mk)
@@ -25,12 +26,12 @@ DATA_ROOT ?= data
 SHARED_DATA ?= $(abspath ../shared/data)
 BIN := $(BUILD_DIR)/bin
 
-.PHONY: all build deps configure test test-tsan test-asan test-asan-readers demo bench fuzz format clean help
+.PHONY: all build tools deps configure test test-tsan test-asan test-asan-readers demo bench fuzz format clean help
 
 all: build
 
 help:
-	@sed -n '2,15p' Makefile | sed 's/^# \{0,1\}//'
+	@sed -n '2,16p' Makefile | sed 's/^# \{0,1\}//'
 
 deps:
 	@scripts/install-deps.sh
@@ -42,6 +43,15 @@ configure: deps $(BUILD_DIR)/CMakeCache.txt
 
 build: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS)
+
+# The executables the pipelines run (build/bin/: the rrslam-* tools and the
+# vocabulary benchmark's two), without the tests and fuzz targets: what
+# `make eval-all` and `make paper` bring up to date first, which is quicker to
+# check than `build` when nothing changed.
+TOOLS := rrslam-synth rrslam-extract rrslam-cluster rrslam-vocab rrslam-track rrslam-eval \
+         rrslam-render rrslam-mapstore vocab_bench vocab_bench_generate
+tools: configure
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target $(TOOLS)
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)

@@ -21,7 +21,7 @@
 # after writing the summary. A skipped sequence is listed as skipped and does
 # not count as a failure. Settings per sequence as in pipelines/vocab.mk
 # (settings.yaml in the folder, or by TUM camera, or SETTINGS=...).
-# The executables are built first (`make build`); SKIP_BUILD=1 uses those in
+# The executables are brought up to date first (`make tools`); SKIP_BUILD=1 uses those in
 # $(BIN) as they are.
 # Variables: DATA_ROOT, VOCAB, EVAL_ROOT (build/eval), EVAL_MODE (batch |
 # realtime), EVAL_SEQUENCES (default: all), EVAL_MIN_FRAMES (30: one second at
@@ -50,7 +50,7 @@ eval_summary_args = $(addprefix $(eval_results)/,$(EVAL_SEQUENCES)) $(if $(EVAL_
 # With SKIP_BUILD=1 nothing is built (as in the vocab pipeline): the tools must
 # exist. A sequence whose rgb.txt lists fewer than EVAL_MIN_FRAMES frames gets
 # skipped.txt (any earlier one is removed) and is not run; the others are.
-eval-all: $(if $(filter 1,$(SKIP_BUILD)),,build)
+eval-all: $(if $(filter 1,$(SKIP_BUILD)),,tools)
 	@test -n "$(EVAL_SEQUENCES)" || { echo "eval-all: no sequence with rgb.txt and groundtruth.txt under DATA_ROOT=$(DATA_ROOT)"; exit 66; }
 	@[[ "$(EVAL_MIN_FRAMES)" =~ ^[0-9]+$$ ]] || { echo "eval-all: EVAL_MIN_FRAMES=$(EVAL_MIN_FRAMES); must be a whole number of frames"; exit 64; }
 	$(if $(filter 1,$(SKIP_BUILD)),@for t in $(BIN)/rrslam-track $(BIN)/rrslam-eval; do test -x $$t || \

@@ -86,7 +86,7 @@ paper_runs = $(foreach n,$(paper_names),$(PAPER_ROOT)/runs/own/$(n)/ate.json \
   $(if $(call paper_others,$(n)),$(PAPER_ROOT)/runs/general/$(n)/ate.json)) \
   $(foreach n,$(paper_transfer_names),$(PAPER_ROOT)/runs/transfer/$(n)/ate.json)
 
-paper: $(if $(filter 1,$(SKIP_BUILD)),,build)
+paper: $(if $(filter 1,$(SKIP_BUILD)),,tools)
 	@echo "paper: $(words $(paper_names)) sequences ($(paper_names)); transfer vocabulary from $(PAPER_TRANSFER)"
 	@$(MAKE) --no-print-directory -k paper-cells SKIP_BUILD=1; status=$$?; \
 	  $(MAKE) --no-print-directory paper-report SKIP_BUILD=1 || exit 1; \
