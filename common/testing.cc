@@ -40,6 +40,11 @@ fs::path BinDir() {
   return env != nullptr ? fs::path(env) : fs::path("build/bin");
 }
 
+fs::path FuzzSeedFolder(const TempDir& temp) {
+  const char* dir = std::getenv("RRSLAM_WRITE_FUZZ_SEEDS");
+  return dir != nullptr ? fs::path(dir) : temp.path();
+}
+
 fs::path SourceDir() {
   if (const char* env = std::getenv("RRSLAM_SOURCE_DIR")) return env;
   return fs::path(__FILE__).parent_path().parent_path();

@@ -1,9 +1,12 @@
 // Helpers shared by rrslam's tests (linked into every test binary).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace rrslam::testing {
@@ -28,6 +31,16 @@ std::optional<std::filesystem::path> SharedDataDir();
 
 // Folder of the rrslam-* executables (RRSLAM_BIN_DIR).
 std::filesystem::path BinDir();
+
+// The bytes of `text` (which must outlive the span).
+inline std::span<const uint8_t> Bytes(std::string_view text) {
+  return {reinterpret_cast<const uint8_t*>(text.data()), text.size()};
+}
+
+// Where a fuzz seed test writes its corpora: the folder
+// RRSLAM_WRITE_FUZZ_SEEDS names (`make fuzz-seeds` sets it to the committed
+// seeds' folder), else `temp`.
+std::filesystem::path FuzzSeedFolder(const TempDir& temp);
 
 // Root of the source tree (RRSLAM_SOURCE_DIR, else the tree this file was
 // compiled from): for tests that run its Makefile or scripts.

@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -335,6 +336,16 @@ inline std::vector<uint8_t> BuildH5Image(FuzzInput& in, const std::vector<H5Obje
   }
   H5Fclose(file);
   return image;
+}
+
+// The file image an input describes: `describe(in)` gives the objects a
+// reader expects (a target's schema, e.g. FeaturesObjects), and the rest of
+// the input damages them (BuildH5Image above).
+template <class Describe>
+std::vector<uint8_t> BuildH5Image(std::span<const uint8_t> input, Describe describe) {
+  FuzzInput in(input.data(), input.size());
+  const std::vector<H5Object> objects = describe(in);
+  return BuildH5Image(in, objects);
 }
 
 }  // namespace rrslam::fuzz

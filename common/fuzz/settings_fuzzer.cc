@@ -19,15 +19,10 @@
 #include <string>
 
 #include "common/errors.h"
+#include "common/fuzz/check.h"
 #include "common/settings.h"
 
-namespace {
-
-void Check(bool condition) {
-  if (!condition) std::abort();
-}
-
-}  // namespace
+using rrslam::fuzz::Check;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

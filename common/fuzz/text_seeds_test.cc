@@ -31,9 +31,7 @@ namespace {
 std::filesystem::path WriteSeeds(const std::string& name,
                                  const std::map<std::string, std::string>& seeds,
                                  const testing::TempDir& temp) {
-  const char* dir = std::getenv("RRSLAM_WRITE_FUZZ_SEEDS");
-  const std::filesystem::path out =
-      (dir != nullptr ? std::filesystem::path(dir) : temp.path()) / "corpus" / name;
+  const std::filesystem::path out = testing::FuzzSeedFolder(temp) / "corpus" / name;
   std::filesystem::create_directories(out);
   for (const auto& [name, content] : seeds) testing::WriteTextFile(out / name, content);
   return out;

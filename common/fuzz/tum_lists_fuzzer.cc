@@ -20,12 +20,11 @@
 
 #include "common/dataset.h"
 #include "common/errors.h"
+#include "common/fuzz/check.h"
+
+using rrslam::fuzz::Check;
 
 namespace {
-
-void Check(bool condition) {
-  if (!condition) std::abort();
-}
 
 std::vector<double> Stamps(std::string_view text, const std::string& source) {
   std::vector<double> stamps;

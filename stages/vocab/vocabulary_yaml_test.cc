@@ -20,9 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 using testing::DescriptorText;
 
-std::span<const uint8_t> Bytes(std::string_view text) {
-  return {reinterpret_cast<const uint8_t*>(text.data()), text.size()};
-}
+using testing::Bytes;
 
 // A DBoW2 YAML vocabulary written by hand in the layout of DBoW2's save
 // (OpenCV FileStorage's YAML): k=2, L=2, L1 scoring, TF-IDF weighting.

@@ -28,19 +28,16 @@
 #include <vector>
 
 #include "common/errors.h"
-#include "common/fuzz/h5_image_builder.h"
+#include "common/fuzz/check.h"
+#include "common/fuzz/h5_fuzz_main.h"
 #include "stages/cluster/fuzz/vocab_tree_schema.h"
 #include "stages/cluster/vocab_tree.h"
 
-namespace {
+namespace rrslam::fuzz {
 
-void Check(bool condition) {
-  if (!condition) std::abort();
-}
+std::vector<H5Object> TargetObjects(FuzzInput& in) { return VocabTreeObjects(in); }
 
-bool raw = false;
-
-void Exercise(std::span<const uint8_t> bytes) {
+void TargetExercise(std::span<const uint8_t> bytes) {
   try {
     const rrslam::VocabTree tree = rrslam::ReadVocabTreeImage(bytes, "fuzz-input");
     const size_t n = tree.num_nodes();
@@ -68,30 +65,4 @@ void Exercise(std::span<const uint8_t> bytes) {
   }
 }
 
-}  // namespace
-
-// A 16 MB quarantine for freed memory instead of AddressSanitizer's 256 MB:
-// libhdf5 allocates and frees megabytes per file, and with the large
-// quarantine nearly every allocation touched fresh pages (3 to 4 times fewer
-// runs per second). Freed memory is still held back long enough to catch a
-// use after free within one run. ASAN_OPTIONS overrides it.
-extern "C" const char* __asan_default_options() { return "quarantine_size_mb=16"; }
-
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  H5::Exception::dontPrint();  // As the tools do (common/cli.cc): errors are exceptions.
-  rrslam::fuzz::KeepH5FreeLists();
-  const char* mode = std::getenv("RRSLAM_FUZZ_H5_RAW");
-  raw = mode != nullptr && std::string(mode) == "1";
-  return 0;
-}
-
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  if (raw) {
-    Exercise({data, size});
-    return 0;
-  }
-  rrslam::fuzz::FuzzInput in(data, size);
-  const std::vector<rrslam::fuzz::H5Object> objects = rrslam::fuzz::VocabTreeObjects(in);
-  Exercise(rrslam::fuzz::BuildH5Image(in, objects));
-  return 0;
-}
+}  // namespace rrslam::fuzz

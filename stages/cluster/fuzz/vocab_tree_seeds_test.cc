@@ -65,8 +65,7 @@ VocabTree SeedTree(int k, int levels, uint64_t leaf_count) {
 TEST(VocabTreeSeeds, WriteAndRead) {
   H5::Exception::dontPrint();
   testing::TempDir temp;
-  const char* env = std::getenv("RRSLAM_WRITE_FUZZ_SEEDS");
-  const std::filesystem::path dir = env != nullptr ? std::filesystem::path(env) : temp.path();
+  const std::filesystem::path dir = testing::FuzzSeedFolder(temp);
   std::filesystem::create_directories(dir / "corpus");
   std::filesystem::create_directories(dir / "corpus_h5");
 
@@ -84,9 +83,8 @@ TEST(VocabTreeSeeds, WriteAndRead) {
   for (const Seed& seed : seeds) {
     testing::WriteTextFile(dir / "corpus" / seed.name, seed.bytes);
     const std::string bytes = ReadFileToString(dir / "corpus" / seed.name);
-    fuzz::FuzzInput in(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
-    const std::vector<fuzz::H5Object> objects = fuzz::VocabTreeObjects(in);
-    const std::vector<uint8_t> image = fuzz::BuildH5Image(in, objects);
+    const std::vector<uint8_t> image =
+        fuzz::BuildH5Image(testing::Bytes(bytes), fuzz::VocabTreeObjects);
     const VocabTree tree = ReadVocabTreeImage(image, seed.name);
     if (seed.nodes > 0) {
       EXPECT_EQ(tree.num_nodes(), seed.nodes) << seed.name;
@@ -101,8 +99,7 @@ TEST(VocabTreeSeeds, WriteAndRead) {
   for (const char* name : {"k2_l2.h5", "k3_l3.h5"}) {
     const VocabTree read = ReadVocabTree(dir / "corpus_h5" / name);
     const std::string bytes = ReadFileToString(dir / "corpus_h5" / name);
-    const VocabTree image =
-        ReadVocabTreeImage({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, name);
+    const VocabTree image = ReadVocabTreeImage(testing::Bytes(bytes), name);
     EXPECT_EQ(image.parent, read.parent) << name;
     EXPECT_EQ(image.count, read.count) << name;
     EXPECT_LE(bytes.size(), 16384u) << name << ": a seed should stay small";

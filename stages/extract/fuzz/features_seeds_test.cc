@@ -54,15 +54,12 @@ FeaturesFile SeedFeatures(int frames, int per_frame) {
   return features;
 }
 
-std::span<const uint8_t> Bytes(const std::string& s) {
-  return {reinterpret_cast<const uint8_t*>(s.data()), s.size()};
-}
+using testing::Bytes;
 
 TEST(FeaturesSeeds, WriteAndRead) {
   H5::Exception::dontPrint();
   testing::TempDir temp;
-  const char* env = std::getenv("RRSLAM_WRITE_FUZZ_SEEDS");
-  const std::filesystem::path dir = env != nullptr ? std::filesystem::path(env) : temp.path();
+  const std::filesystem::path dir = testing::FuzzSeedFolder(temp);
   std::filesystem::create_directories(dir / "corpus");
   std::filesystem::create_directories(dir / "corpus_h5");
 
@@ -78,9 +75,7 @@ TEST(FeaturesSeeds, WriteAndRead) {
   for (const Seed& seed : seeds) {
     testing::WriteTextFile(dir / "corpus" / seed.name, seed.bytes);
     const std::string bytes = ReadFileToString(dir / "corpus" / seed.name);
-    fuzz::FuzzInput in(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
-    const std::vector<fuzz::H5Object> objects = fuzz::FeaturesObjects(in);
-    const std::vector<uint8_t> image = fuzz::BuildH5Image(in, objects);
+    const std::vector<uint8_t> image = fuzz::BuildH5Image(Bytes(bytes), fuzz::FeaturesObjects);
     const FeaturesFile read = ReadFeaturesFileImage(image, seed.name);
     EXPECT_EQ(read.num_frames(), seed.frames) << seed.name;
     EXPECT_EQ(read.keypoints.size(), seed.keypoints) << seed.name;

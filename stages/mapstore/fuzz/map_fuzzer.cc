@@ -14,14 +14,13 @@
 #include "common/binary_header.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/fuzz/check.h"
 #include "common/fuzz/repair_header.h"
 #include "stages/mapstore/map_file.h"
 
-namespace {
+using rrslam::fuzz::Check;
 
-void Check(bool condition) {
-  if (!condition) std::abort();
-}
+namespace {
 
 void Exercise(std::span<const uint8_t> bytes) {
   try {

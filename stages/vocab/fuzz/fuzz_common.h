@@ -12,14 +12,11 @@
 #include <vector>
 
 #include "common/errors.h"
+#include "common/fuzz/check.h"
 #include "stages/vocab/vocabulary.h"
 #include "stages/vocab/vocabulary_format.h"
 
 namespace rrslam::fuzz {
-
-inline void Check(bool condition) {
-  if (!condition) std::abort();
-}
 
 // Transforms a fixed set of descriptors (feature vectors at every level) and
 // scores the result with itself.
