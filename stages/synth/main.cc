@@ -41,6 +41,14 @@ void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
                  "Depth scale bias E: the sensor reports (1 + E) * true depth, before noise "
                  "and holes; 0.01 = 1% too far (-0.5, 0.5)")
       ->capture_default_str();
+  app.add_option("--depth-scale-wander", o->depth_scale_wander,
+                 "Wander W of the depth scale bias: at t seconds the sensor reports "
+                 "(1 + E + W sin(2 pi t / P)) * true depth; a drift source, unlike a constant "
+                 "E [0, 0.2]")
+      ->capture_default_str();
+  app.add_option("--depth-scale-period", o->depth_scale_period,
+                 "Period P of the depth scale wander, seconds [0.1, 3600]")
+      ->capture_default_str();
   app.add_option("--brightness-change", o->brightness_change,
                  "Amplitude of the exposure change: gain within 1 +- this [0, 0.9]")
       ->capture_default_str();

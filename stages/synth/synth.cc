@@ -124,6 +124,17 @@ bool SynthOptions::Check(std::string* why) const {
   if (!(depth_scale_error > -0.5 && depth_scale_error < 0.5)) {
     return Fail(why, "depth_scale_error = " + Num(depth_scale_error) + "; must be in (-0.5, 0.5)");
   }
+  if (!(depth_scale_wander >= 0 && depth_scale_wander <= 0.2)) {
+    return Fail(why, "depth_scale_wander = " + Num(depth_scale_wander) + "; must be in [0, 0.2]");
+  }
+  if (!(std::abs(depth_scale_error) + depth_scale_wander < 0.5)) {
+    return Fail(why, "depth_scale_wander = " + Num(depth_scale_wander) +
+                         "; must be below 0.5 - |depth_scale_error|");
+  }
+  if (!(depth_scale_period >= 0.1 && depth_scale_period <= 3600)) {
+    return Fail(why,
+                "depth_scale_period = " + Num(depth_scale_period) + "; must be in [0.1, 3600]");
+  }
   if (!(brightness_change >= 0 && brightness_change <= 0.9)) {
     return Fail(why, "brightness_change = " + Num(brightness_change) + "; must be in [0, 0.9]");
   }
@@ -149,6 +160,11 @@ double DefaultMotionBlur(synth::TrajectoryKind kind) {
 
 double SynthOptions::MotionBlur() const {
   return motion_blur.value_or(DefaultMotionBlur(trajectory));
+}
+
+double SynthOptions::DepthScaleError(double t) const {
+  if (depth_scale_wander == 0) return depth_scale_error;
+  return depth_scale_error + depth_scale_wander * std::sin(2 * M_PI * t / depth_scale_period);
 }
 
 PinholeCamera SynthOptions::Camera() const {
@@ -196,6 +212,8 @@ std::string SynthOptions::ToJson() const {
   j["depth_noise"] = depth_noise;
   j["depth_holes"] = depth_holes;
   j["depth_scale_error"] = depth_scale_error;
+  j["depth_scale_wander"] = depth_scale_wander;
+  j["depth_scale_period"] = depth_scale_period;
   j["brightness_change"] = brightness_change;
   j["motion_blur"] = MotionBlur();
   j["seed"] = seed;
@@ -277,7 +295,7 @@ SynthFrame SyntheticSequence::Render(size_t i) const {
                                                            path_.duration(), options_.seed));
 
   synth::DepthSensorModel model;
-  model.scale_error = options_.depth_scale_error;
+  model.scale_error = options_.DepthScaleError(t);
   model.noise_coefficient = options_.depth_noise;
   model.hole_fraction = options_.depth_holes;
   model.depth_map_factor = kDepthMapFactor;

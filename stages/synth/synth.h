@@ -70,6 +70,16 @@ struct SynthOptions {
   // In (-0.5, 0.5); 0 = calibrated. The ground truth and settings.yaml stay
   // exact: the bias is the sensor's, unknown to whoever reads the sequence.
   double depth_scale_error = 0.0;
+  // Wander of the depth scale error, dimensionless: the sensor's bias drifts
+  // over time (a warming Kinect), so frame i at t seconds reports
+  // (1 + DepthScaleError(t)) times the true depth, with
+  // DepthScaleError(t) = depth_scale_error + W sin(2 pi t / P). Unlike a
+  // constant bias, which scales the whole world and is unobservable, a
+  // changing bias bends the trajectory: a drift source that loop closing can
+  // correct. W in [0, 0.2], |depth_scale_error| + W < 0.5; 0 = constant.
+  double depth_scale_wander = 0.0;
+  // Its period P, seconds; in [0.1, 3600].
+  double depth_scale_period = 15.0;
   // Amplitude of the global exposure change over the sequence: the gain
   // varies smoothly within 1 +- brightness_change. In [0, 0.9].
   double brightness_change = 0.0;
@@ -99,6 +109,8 @@ struct SynthOptions {
 
   // motion_blur, or the trajectory's default when it is unset; pixels.
   double MotionBlur() const;
+  // The depth scale error at t seconds (see depth_scale_wander).
+  double DepthScaleError(double t) const;
   // Intrinsics with the defaults resolved (no distortion).
   PinholeCamera Camera() const;
   // ORB-SLAM2 settings for the sequence: the camera, fps, bf = 40 * fx / 525

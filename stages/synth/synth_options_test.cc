@@ -3,6 +3,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <opencv2/core.hpp>
 
 #include "common/errors.h"
 #include "common/testing.h"
@@ -48,6 +49,17 @@ TEST(SynthOptions, EachConstraintFails) {
       {"depth_scale_error", [](SynthOptions& o) { o.depth_scale_error = -0.5; }},
       {"depth_scale_error", [](SynthOptions& o) { o.depth_scale_error = 2; }},
       {"depth_scale_error", [nan](SynthOptions& o) { o.depth_scale_error = nan; }},
+      {"depth_scale_wander", [](SynthOptions& o) { o.depth_scale_wander = -0.01; }},
+      {"depth_scale_wander", [](SynthOptions& o) { o.depth_scale_wander = 0.3; }},
+      {"depth_scale_wander", [nan](SynthOptions& o) { o.depth_scale_wander = nan; }},
+      {"depth_scale_wander",
+       [](SynthOptions& o) {
+         o.depth_scale_error = -0.4;
+         o.depth_scale_wander = 0.1;
+       }},
+      {"depth_scale_period", [](SynthOptions& o) { o.depth_scale_period = 0; }},
+      {"depth_scale_period", [](SynthOptions& o) { o.depth_scale_period = 4000; }},
+      {"depth_scale_period", [nan](SynthOptions& o) { o.depth_scale_period = nan; }},
       {"brightness_change", [](SynthOptions& o) { o.brightness_change = 1.0; }},
       {"brightness_change", [](SynthOptions& o) { o.brightness_change = -0.1; }},
       {"motion_blur", [](SynthOptions& o) { o.motion_blur = -1; }},
@@ -80,7 +92,9 @@ TEST(SynthOptions, BoundaryValuesPass) {
   o.fx = 1;
   o.depth_noise = 0;
   o.depth_holes = 0;
-  o.depth_scale_error = 0.499;
+  o.depth_scale_error = 0.299;
+  o.depth_scale_wander = 0.2;
+  o.depth_scale_period = 0.1;
   o.motion_blur = 64;
   o.brightness_change = 0.9;
   o.threads = 256;
@@ -185,6 +199,50 @@ TEST(SynthOptions, DepthScaleError) {
   EXPECT_FALSE(o.Check(&why));
   EXPECT_EQ(why, "depth_scale_error = -0.5; must be in (-0.5, 0.5)");
   EXPECT_THROW(SyntheticSequence sequence(o), UsageError);
+}
+
+TEST(SynthOptions, DepthScaleWander) {
+  SynthOptions o;
+  EXPECT_EQ(o.depth_scale_wander, 0.0);  // A constant bias by default.
+  o.depth_scale_error = 0.01;
+  for (double t : {0.0, 1.0, 7.3}) EXPECT_EQ(o.DepthScaleError(t), 0.01);
+  o.depth_scale_wander = 0.02;
+  o.depth_scale_period = 8;
+  EXPECT_DOUBLE_EQ(o.DepthScaleError(0), 0.01);
+  EXPECT_DOUBLE_EQ(o.DepthScaleError(2), 0.03);   // A quarter period: the peak.
+  EXPECT_DOUBLE_EQ(o.DepthScaleError(6), -0.01);  // Three quarters: the trough.
+  EXPECT_NE(o.ToJson().find("\"depth_scale_wander\":0.02,\"depth_scale_period\":8.0"),
+            std::string::npos)
+      << o.ToJson();
+
+  // The rendered depth follows it: frame i of a tiny sequence at 1 fps
+  // against the same frame with the bias held at its value then.
+  o = SynthOptions();
+  o.width = 64;
+  o.height = 48;
+  o.frames = 3;
+  o.fps = 1;
+  o.depth_noise = 0;
+  o.depth_holes = 0;
+  o.depth_scale_wander = 0.05;
+  o.depth_scale_period = 4;
+  o.texel_size = 0.02;  // Coarse textures: a quick room.
+  o.threads = 1;
+  const SyntheticSequence wandering(o);
+  for (size_t i = 0; i < 3; ++i) {
+    SynthOptions fixed = o;
+    fixed.depth_scale_wander = 0;
+    fixed.depth_scale_error = o.DepthScaleError(static_cast<double>(i));
+    const SyntheticSequence held(fixed);
+    const cv::Mat a = wandering.Render(i).depth, b = held.Render(i).depth;
+    EXPECT_EQ(cv::countNonZero(a != b), 0) << "frame " << i;
+  }
+  // And the bias does change the depth between frames 0 (E = 0) and 1 (E = 0.05).
+  SynthOptions calibrated = o;
+  calibrated.depth_scale_wander = 0;
+  const SyntheticSequence exact(calibrated);
+  EXPECT_EQ(cv::countNonZero(wandering.Render(0).depth != exact.Render(0).depth), 0);
+  EXPECT_GT(cv::countNonZero(wandering.Render(1).depth != exact.Render(1).depth), 0);
 }
 
 TEST(SynthOptions, RunSynthRejectsBadOptionsAndWritesNothing) {
