@@ -31,8 +31,10 @@ rgbd_tum=$1 bin=$2 data=$(cd "$3" && pwd) shared=$(cd "$4" && pwd) runs=$5 out=$
 work=$data/orbslam2
 mkdir -p "$work/vocab" "$work/runs"
 
-# TUM's associate.py rule: pairs by smallest time difference first, under
-# 0.02 s, each stamp used once (rgbd_tum needs an associations file).
+# TUM's associate.py rule, the one rrslam-track pairs by
+# (AssociateTimestamps, common/dataset.h): pairs by smallest time difference
+# first, under 0.02 s, each stamp used once. rgbd_tum needs the pairs as a
+# file, and no rrslam tool writes one, hence this copy of the rule.
 associate() {  # SEQUENCE_DIR OUT
   python3 - "$1" "$2" <<'EOF'
 import sys

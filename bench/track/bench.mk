@@ -97,18 +97,17 @@ endef
 $(foreach p,$(BENCH_TRACK_PATHS),$(eval $(call bench_track_synth,$(p))))
 BENCH_TRACK_LAP_FRAMES ?= 1200
 BENCH_TRACK_LOOPS ?= laps laps-dse laps-dsw
-$(BENCH_TRACK_DIR)/synth/laps/groundtruth.txt: $(BIN)/rrslam-synth
-	@mkdir -p $(dir $(@D))
-	$(BIN)/rrslam-synth --quiet --out $(@D) --trajectory loop --frames $(BENCH_TRACK_LAP_FRAMES) \
-	  --seed 1
-$(BENCH_TRACK_DIR)/synth/laps-dse/groundtruth.txt: $(BIN)/rrslam-synth
-	@mkdir -p $(dir $(@D))
-	$(BIN)/rrslam-synth --quiet --out $(@D) --trajectory loop --frames $(BENCH_TRACK_LAP_FRAMES) \
-	  --seed 1 --depth-scale-error 0.01
-$(BENCH_TRACK_DIR)/synth/laps-dsw/groundtruth.txt: $(BIN)/rrslam-synth
-	@mkdir -p $(dir $(@D))
-	$(BIN)/rrslam-synth --quiet --out $(@D) --trajectory loop --frames $(BENCH_TRACK_LAP_FRAMES) \
-	  --seed 1 --depth-scale-wander 0.01 --depth-scale-period 15
+# The rrslam-synth options that make each two-lap sequence what it is.
+bench_track_loop_args.laps :=
+bench_track_loop_args.laps-dse := --depth-scale-error 0.01
+bench_track_loop_args.laps-dsw := --depth-scale-wander 0.01 --depth-scale-period 15
+define bench_track_loop
+$(BENCH_TRACK_DIR)/synth/$(1)/groundtruth.txt: $(BIN)/rrslam-synth
+	@mkdir -p $$(dir $$(@D))
+	$(BIN)/rrslam-synth --quiet --out $$(@D) --trajectory loop --frames $(BENCH_TRACK_LAP_FRAMES) \
+	  --seed 1 $(bench_track_loop_args.$(1))
+endef
+$(foreach l,$(BENCH_TRACK_LOOPS),$(eval $(call bench_track_loop,$(l))))
 $(BENCH_TRACK_DIR)/synth/shake/groundtruth.txt: $(BIN)/rrslam-synth
 	@mkdir -p $(dir $(@D))
 	$(BIN)/rrslam-synth --quiet --out $(@D) --trajectory shake --frames $(BENCH_TRACK_FRAMES) \
