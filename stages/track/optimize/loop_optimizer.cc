@@ -250,8 +250,6 @@ void GlobalBundleAdjuster::Collect(const Map& map) {
 void GlobalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
   if (observations_.empty()) return;
   const ProjectionParameters k = ProjectionParametersOf(sensor_);
-  ceres::HuberLoss loss_mono(std::sqrt(kChi2TwoDof));
-  ceres::HuberLoss loss_stereo(std::sqrt(kChi2ThreeDof));
   ceres::Problem problem(ProblemOptions());
   auto* ordering = new ceres::ParameterBlockOrdering;
   std::vector<uint8_t> keyframe_used(keyframes_.size(), 0);
@@ -283,7 +281,7 @@ void GlobalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
       problem.AddParameterBlock(point, 3);
       ordering->AddElementToGroup(point, 0);
     }
-    problem.AddResidualBlock(cost, o.with_depth ? &loss_stereo : &loss_mono, pose, point);
+    problem.AddResidualBlock(cost, nullptr, pose, point);
   }
   if (problem.NumResidualBlocks() == 0) {
     delete ordering;

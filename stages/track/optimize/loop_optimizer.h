@@ -73,7 +73,8 @@ struct GlobalBundleAdjustmentStats {
 
 // Global bundle adjustment (ORB-SLAM2's GlobalBundleAdjustemnt with
 // nIterations = 10): every keyframe of the map (the root fixed) and every
-// map point, Huber-robustified reprojection errors (u, v, u_R with depth),
+// map point, plain squared reprojection errors (u, v, u_R with depth): no
+// robust loss (ORB-SLAM2's loop closing calls it with bRobust = false) and
 // no outlier removal.
 //   Collect (map locked): snapshot of the keyframes' poses, the points'
 //     positions and the observations.

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "stages/track/optimize/reprojection_error.h"
 #include "stages/track/test_scene.h"
 
 namespace rrslam {
@@ -322,6 +323,42 @@ TEST_F(GlobalBundleAdjustmentTest, LowersTheCostAndReturnsPosesTowardsTheTruth) 
     EXPECT_LT(TranslationError(keyframes_[k]->T_cam_world(), truth_[k]), 1e-3) << k;
     EXPECT_LT(RotationAngle(keyframes_[k]->T_cam_world().rotation, truth_[k].rotation), 1e-4) << k;
   }
+}
+
+// ORB-SLAM2's loop closing runs its global BA without a robust kernel
+// (bRobust = false): the cost is half the plain sum of squared whitened
+// residuals, however large they are. With 2 cm of point noise most residuals
+// lie beyond the Huber width, where a robust loss would grow only linearly.
+TEST_F(GlobalBundleAdjustmentTest, CostIsThePlainSumOfSquaresWithoutARobustLoss) {
+  Perturb();
+  const ProjectionParameters k = ProjectionParametersOf(sensor_);
+  double expected = 0;
+  int beyond_huber = 0;
+  int observations = 0;
+  for (MapPoint* point : map_.MapPoints()) {
+    const Eigen::Vector3d position = point->position_world();
+    for (const MapPoint::Observation& o : point->observations()) {
+      const KeypointMeasurement m = MeasurementOf(sensor_, *o.keyframe, o.index);
+      const std::array<double, 7> pose = ToPoseBlock(o.keyframe->T_cam_world());
+      double r[3] = {0, 0, 0};
+      const bool ok =
+          m.with_depth ? internal::EvaluateReprojection<3>(k, m.observed, m.inv_sigma, pose.data(),
+                                                           position.data(), r, nullptr, nullptr)
+                       : internal::EvaluateReprojection<2>(k, m.observed, m.inv_sigma, pose.data(),
+                                                           position.data(), r, nullptr, nullptr);
+      ASSERT_TRUE(ok);
+      const double squared = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+      expected += 0.5 * squared;
+      beyond_huber += squared > (m.with_depth ? kChi2ThreeDof : kChi2TwoDof);
+      ++observations;
+    }
+  }
+  ASSERT_GT(beyond_huber, observations / 2);
+  GlobalBundleAdjuster adjuster(sensor_);
+  adjuster.Collect(map_);
+  ASSERT_EQ(adjuster.stats().observations, observations);
+  adjuster.Solve();
+  EXPECT_NEAR(adjuster.stats().initial_cost, expected, 1e-9 * expected);
 }
 
 // A keyframe made while the adjustment solves is not in its snapshot: it
