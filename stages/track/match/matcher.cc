@@ -7,6 +7,15 @@
 namespace rrslam {
 namespace {
 
+// A keypoint already matched to a map point (one that keyframes observe) is
+// not a candidate of the projection searches. One matched to a temporary
+// point (localization mode's visual-odometry points, which no keyframe
+// observes) still is, and a map point found there replaces it (ORB-SLAM2's
+// `Observations() > 0` test).
+bool MatchedToMapPoint(const MapPoint* point) {
+  return point != nullptr && point->num_observations() > 0;
+}
+
 // Visits the pairs of (node, indices) entries of two feature vectors that
 // share a node, in node order.
 template <typename Fn>
@@ -170,7 +179,7 @@ int Matcher::SearchByProjection(Frame* current, const Frame& last, double th) co
     int best_dist = 256;
     int best_idx = -1;
     for (uint32_t idx : candidates) {
-      if (current->map_points[idx] != nullptr) continue;
+      if (MatchedToMapPoint(current->map_points[idx])) continue;
       if (cf.HasDepth(idx) && std::abs(u_right - cf.u_right[idx]) > radius) continue;
       const int dist = HammingDistance(descriptor, cf.descriptors[idx]);
       if (dist < best_dist) {
@@ -215,7 +224,7 @@ int Matcher::SearchByProjection(Frame* frame, const std::vector<ProjectedPoint>&
     int best_level = -1, best_level2 = -1;
     int best_idx = -1;
     for (uint32_t idx : candidates) {
-      if (frame->map_points[idx] != nullptr) continue;
+      if (MatchedToMapPoint(frame->map_points[idx])) continue;
       if (f.HasDepth(idx) && std::abs(pp.u_right - f.u_right[idx]) > r) continue;
       const int dist = HammingDistance(descriptor, f.descriptors[idx]);
       if (dist < best_dist) {

@@ -88,14 +88,18 @@ class Matcher {
   // current->T_cam_world() and matches each in a window of th * scale of its
   // keypoint's level; with depth, the virtual right coordinate must agree
   // within the same radius, and the levels searched follow the camera's
-  // forward/backward motion. Fills current->map_points where still empty.
-  // Returns the number of new matches.
+  // forward/backward motion. Fills current->map_points where still empty or
+  // holding a temporary point (one no keyframe observes: localization mode's
+  // visual-odometry points), as ORB-SLAM2. Returns the number of new matches
+  // (a keypoint matched twice counts twice, as in ORB-SLAM2).
   int SearchByProjection(Frame* current, const Frame& last, double th) const;
 
   // Local-map search: matches predicted points (ProjectIntoView) in a window of
   // th * (2.5 px when seen head-on, else 4 px) * scale of the predicted level,
   // on the predicted level and the one below, with the ratio test when the
-  // two best candidates share a level. Returns the number of new matches.
+  // two best candidates share a level. Keypoints matched to a temporary point
+  // are candidates too (the map point replaces it). Returns the number of new
+  // matches.
   int SearchByProjection(Frame* frame, const std::vector<ProjectedPoint>& points, double th) const;
 
   // Relocalization search: projects `keyframe`'s map points that are not in

@@ -272,6 +272,58 @@ TEST_F(ProjectionSearchTest, LocalMapSearchRejectsAmbiguousCandidates) {
   EXPECT_EQ(clear.map_points[1], point);
 }
 
+// Localization mode matches the frame to temporary points (seen by no
+// keyframe) before its local-map search. As in ORB-SLAM2, a keypoint holding
+// such a point is still a candidate of the projection searches and the map
+// point found there replaces it; a keypoint holding a point that a keyframe
+// observes is not.
+TEST_F(ProjectionSearchTest, ProjectionSearchesReplaceTemporaryPointsOnly) {
+  KeyFrame* keyframe = map_.CreateKeyFrame(last_);
+  map_.AddKeyFrame(keyframe);
+  const testing::ScenePoint far{Eigen::Vector3d(0, 0, 50), {}};
+  MapPoint* temporary = MakeFreePoint(&map_, sensor_, far, Eigen::Vector3d::Zero());
+  MapPoint* observed = MakeFreePoint(&map_, sensor_, far, Eigen::Vector3d::Zero());
+  map_.AddObservation(observed, keyframe, 0);
+  ASSERT_EQ(temporary->num_observations(), 0);
+  ASSERT_GT(observed->num_observations(), 0);
+  // The last frame's points, given an observation, as map points are.
+  std::vector<ProjectedPoint> predicted;
+  Frame current = MakeFrame(sensor_, current_view_, 1, T_current_);
+  for (size_t i = 0; i < last_.size(); ++i) {
+    if (i > 0) map_.AddObservation(last_.map_points[i], keyframe, static_cast<uint32_t>(i));
+    ProjectedPoint pp;
+    if (ProjectIntoView(sensor_, current.R_cam_world(), current.T_cam_world().translation,
+                        current.camera_centre(), last_.map_points[i], 0.5, &pp)) {
+      predicted.push_back(pp);
+    }
+  }
+  const auto run = [&](bool motion_model) {
+    Frame frame = MakeFrame(sensor_, current_view_, 1, T_current_);
+    for (size_t i = 0; i < frame.size(); ++i) frame.map_points[i] = i % 2 ? observed : temporary;
+    if (motion_model) {
+      Matcher(sensor_, 0.9, true).SearchByProjection(&frame, last_, 7.0);
+    } else {
+      Matcher(sensor_, 0.8, false).SearchByProjection(&frame, predicted, 1.0);
+    }
+    int replaced = 0, right = 0, visible_even = 0;
+    for (size_t i = 0; i < frame.size(); ++i) {
+      const int p = current_view_.point_of[i];
+      if (i % 2) {
+        EXPECT_EQ(frame.map_points[i], observed) << i;
+        continue;
+      }
+      visible_even += p >= 0 && points_[p] != nullptr;
+      if (frame.map_points[i] == temporary) continue;
+      ++replaced;
+      right += p >= 0 && frame.map_points[i] == points_[p];
+    }
+    EXPECT_GE(replaced, 0.8 * visible_even) << (motion_model ? "motion model" : "local map");
+    EXPECT_EQ(right, replaced) << (motion_model ? "motion model" : "local map");
+  };
+  run(true);
+  run(false);
+}
+
 // Feature vectors grouping keypoint i of a view under node (point % nodes);
 // distractors go to node 0.
 FeatureVector GroupByPoint(const testing::SyntheticView& view, int nodes) {
