@@ -12,6 +12,7 @@
 #include "common/binary_header.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/worker_pool.h"
 
 namespace rrslam {
 namespace {
@@ -256,14 +257,12 @@ ParsedHeader ParseHeader(std::span<const uint8_t> file, const std::string& sourc
   return h;
 }
 
-// Finds the known sections in the table (unknown ones are ignored: a newer
-// minor version may add sections) and checks their checksums.
-struct SectionBytes {
-  std::array<std::span<const uint8_t>, kNumSections> bytes;
-};
+// The known sections' bytes, by Section.
+using Sections = std::array<std::span<const uint8_t>, kNumSections>;
 
-std::span<const uint8_t> FindSection(const ParsedHeader& h, int section,
-                                     const std::string& source) {
+// Finds a known section in the table (unknown ones are ignored: a newer
+// minor version may add sections).
+const MapSectionInfo& FindSection(const ParsedHeader& h, int section, const std::string& source) {
   const MapSectionInfo* found = nullptr;
   for (const MapSectionInfo& s : h.info.sections) {
     if (s.name != kSectionNames[section]) continue;
@@ -271,11 +270,35 @@ std::span<const uint8_t> FindSection(const ParsedHeader& h, int section,
     found = &s;
   }
   if (found == nullptr) throw DataError(source + ": " + SectionText(section) + " is missing");
-  const std::span<const uint8_t> bytes = h.payload.subspan(found->offset, found->size);
-  if (Checksum64(bytes) != found->checksum) {
+  return *found;
+}
+
+std::span<const uint8_t> SectionOf(const ParsedHeader& h, const MapSectionInfo& section) {
+  return h.payload.subspan(section.offset, section.size);
+}
+
+void CheckSectionSum(int section, uint64_t sum, const MapSectionInfo& table,
+                     const std::string& source) {
+  if (sum != table.checksum) {
     throw DataError(source + ": " + SectionText(section) + ": checksum mismatch (file corrupt)");
   }
-  return bytes;
+}
+
+// The known sections, each checked against its checksum, then the whole
+// payload against its own (which catches corruption between sections and in
+// sections this version does not know).
+Sections CheckedSections(const ParsedHeader& h, const std::string& source) {
+  Sections s;
+  for (int i = 0; i < kNumSections; ++i) {
+    const MapSectionInfo& table = FindSection(h, i, source);
+    s[i] = SectionOf(h, table);
+    CheckSectionSum(i, Checksum64(s[i]), table, source);
+  }
+  if (Checksum64(h.payload) != h.payload_checksum) {
+    throw DataError(source +
+                    ": payload checksum mismatch outside the known sections (file corrupt)");
+  }
+  return s;
 }
 
 MapData ParseMeta(std::span<const uint8_t> m, const std::string& source, MapCounts* counts) {
@@ -348,16 +371,115 @@ void CheckTotal(uint64_t total, uint64_t expected, const char* what, const char*
   }
 }
 
+// Where one keyframe's entries start in the concatenated arrays (counts of
+// entries, not bytes).
+struct KeyframeStart {
+  uint64_t keypoint = 0, bow = 0, group = 0, index = 0, connection = 0, loop = 0;
+};
+
+void ParseKeyframe(const Sections& s, const MapCounts& c, const KeyframeStart& at, const uint8_t* r,
+                   KeyFrameRecord* out) {
+  KeyFrameRecord& kf = *out;
+  kf.id = Load<uint64_t>(r + 0);
+  kf.frame_id = Load<uint64_t>(r + 8);
+  kf.timestamp = Load<double>(r + 16);
+  MapPose& T = kf.T_cam_world;
+  T.qw = Load<double>(r + 24);
+  T.qx = Load<double>(r + 32);
+  T.qy = Load<double>(r + 40);
+  T.qz = Load<double>(r + 48);
+  T.tx = Load<double>(r + 56);
+  T.ty = Load<double>(r + 64);
+  T.tz = Load<double>(r + 72);
+  kf.parent = Load<uint64_t>(r + 80);
+  const uint32_t n = Load<uint32_t>(r + 88);
+  const uint32_t n_bow = Load<uint32_t>(r + 92);
+  const uint32_t n_groups = Load<uint32_t>(r + 96);
+  const uint32_t n_connections = Load<uint32_t>(r + 100);
+  const uint32_t n_loops = Load<uint32_t>(r + 104);
+
+  const uint8_t* keypoints = s[kKeypoints].data() + kKeypointRecordSize * at.keypoint;
+  kf.keypoints.resize(n);
+  for (uint32_t k = 0; k < n; ++k) {
+    MapKeypoint& kp = kf.keypoints[k];
+    const uint8_t* q = keypoints + kKeypointRecordSize * k;
+    kp.pixel_x = Load<float>(q + 0);
+    kp.pixel_y = Load<float>(q + 4);
+    kp.undistorted_x = Load<float>(q + 8);
+    kp.undistorted_y = Load<float>(q + 12);
+    kp.angle_deg = Load<float>(q + 16);
+    kp.response = Load<float>(q + 20);
+    kp.depth = Load<float>(q + 24);
+    kp.u_right = Load<float>(q + 28);
+    kp.octave = q[32];
+  }
+  kf.descriptors.resize(n);
+  if (n > 0) {
+    std::memcpy(kf.descriptors.data(), s[kDescriptors].data() + kDescriptorSize * at.keypoint,
+                kDescriptorSize * n);
+  }
+  kf.map_point_ids.resize(n);
+  if (n > 0) {
+    std::memcpy(kf.map_point_ids.data(), s[kKfPoints].data() + 8 * at.keypoint, 8 * size_t{n});
+  }
+
+  const uint8_t* bow = s[kBow].data() + kBowEntrySize * at.bow;
+  kf.bow.resize(n_bow);
+  for (uint32_t k = 0; k < n_bow; ++k) {
+    kf.bow[k] = {Load<uint32_t>(bow + kBowEntrySize * k),
+                 Load<double>(bow + kBowEntrySize * k + 8)};
+  }
+
+  const uint8_t* groups = s[kFeatureVectors].data() + kFvGroupSize * at.group;
+  const uint8_t* indices =
+      s[kFeatureVectors].data() + kFvGroupSize * c.feature_vector_groups + kFvIndexSize * at.index;
+  kf.feature_vector.resize(n_groups);
+  for (uint32_t g = 0; g < n_groups; ++g) {
+    auto& [node, list] = kf.feature_vector[g];
+    node = Load<uint32_t>(groups + kFvGroupSize * g);
+    const uint32_t count = Load<uint32_t>(groups + kFvGroupSize * g + 4);
+    list.resize(count);
+    if (count > 0) std::memcpy(list.data(), indices, kFvIndexSize * count);
+    indices += kFvIndexSize * count;
+  }
+
+  const uint8_t* connections = s[kGraph].data() + kConnectionSize * at.connection;
+  kf.connections.resize(n_connections);
+  for (uint32_t k = 0; k < n_connections; ++k) {
+    kf.connections[k] = {Load<uint64_t>(connections + kConnectionSize * k),
+                         Load<int32_t>(connections + kConnectionSize * k + 8)};
+  }
+  const uint8_t* loops =
+      s[kGraph].data() + kConnectionSize * c.connections + kLoopEdgeSize * at.loop;
+  kf.loop_edges.resize(n_loops);
+  if (n_loops > 0) std::memcpy(kf.loop_edges.data(), loops, kLoopEdgeSize * n_loops);
+}
+
+void ParseMapPoint(const uint8_t* r, const uint8_t* observations, MapPointRecord* out) {
+  MapPointRecord& mp = *out;
+  mp.id = Load<uint64_t>(r + 0);
+  for (int k = 0; k < 3; ++k) {
+    mp.position[k] = Load<double>(r + 8 + 8 * k);
+    mp.normal[k] = Load<double>(r + 32 + 8 * k);
+  }
+  mp.min_distance = Load<double>(r + 56);
+  mp.max_distance = Load<double>(r + 64);
+  std::memcpy(mp.descriptor.bytes, r + 72, kDescriptorSize);
+  mp.visible = Load<int32_t>(r + 104);
+  mp.found = Load<int32_t>(r + 108);
+  mp.reference_keyframe = Load<uint64_t>(r + 112);
+  mp.first_keyframe = Load<uint64_t>(r + 120);
+  const uint32_t n = Load<uint32_t>(r + 128);
+  mp.observations.resize(n);
+  for (uint32_t k = 0; k < n; ++k) {
+    mp.observations[k] = {Load<uint64_t>(observations + kObservationSize * k),
+                          Load<uint32_t>(observations + kObservationSize * k + 8)};
+  }
+}
+
 MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info) {
   const ParsedHeader h = ParseHeader(file, source);
-  std::array<std::span<const uint8_t>, kNumSections> s;
-  for (int i = 0; i < kNumSections; ++i) s[i] = FindSection(h, i, source);
-  // The sections' checksums passed; this catches corruption between them and
-  // in sections this version does not know.
-  if (Checksum64(h.payload) != h.payload_checksum) {
-    throw DataError(source +
-                    ": payload checksum mismatch outside the known sections (file corrupt)");
-  }
+  const Sections s = CheckedSections(h, source);
   MapCounts c;
   MapData map = ParseMeta(s[kMeta], source, &c);
   // Every count is checked against the size of its section before anything is
@@ -375,142 +497,61 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
   }
 
   // Per-keyframe counts, summed (in 64 bits: each is 32-bit) and compared with
-  // the totals before any per-keyframe array is filled.
+  // the totals before any per-keyframe array is filled. Each keyframe's
+  // start in the concatenated arrays is kept, so keyframes parse in parallel.
   const uint8_t* kf_bytes = s[kKeyframes].data();
-  uint64_t sum_keypoints = 0, sum_bow = 0, sum_groups = 0, sum_connections = 0, sum_loops = 0;
+  std::vector<KeyframeStart> starts(c.keyframes);
+  KeyframeStart sum;
   for (uint64_t i = 0; i < c.keyframes; ++i) {
+    starts[i] = sum;
     const uint8_t* r = kf_bytes + kKeyframeRecordSize * i;
-    sum_keypoints += Load<uint32_t>(r + 88);
-    sum_bow += Load<uint32_t>(r + 92);
-    sum_groups += Load<uint32_t>(r + 96);
-    sum_connections += Load<uint32_t>(r + 100);
-    sum_loops += Load<uint32_t>(r + 104);
+    sum.keypoint += Load<uint32_t>(r + 88);
+    sum.bow += Load<uint32_t>(r + 92);
+    sum.group += Load<uint32_t>(r + 96);
+    sum.connection += Load<uint32_t>(r + 100);
+    sum.loop += Load<uint32_t>(r + 104);
   }
-  CheckTotal(sum_keypoints, c.keypoints, "keypoints", "keyframes", source);
-  CheckTotal(sum_bow, c.bow_entries, "bow entries", "keyframes", source);
-  CheckTotal(sum_groups, c.feature_vector_groups, "feature vector groups", "keyframes", source);
-  CheckTotal(sum_connections, c.connections, "connections", "keyframes", source);
-  CheckTotal(sum_loops, c.loop_edges, "loop edges", "keyframes", source);
-  uint64_t sum_indices = 0;
+  CheckTotal(sum.keypoint, c.keypoints, "keypoints", "keyframes", source);
+  CheckTotal(sum.bow, c.bow_entries, "bow entries", "keyframes", source);
+  CheckTotal(sum.group, c.feature_vector_groups, "feature vector groups", "keyframes", source);
+  CheckTotal(sum.connection, c.connections, "connections", "keyframes", source);
+  CheckTotal(sum.loop, c.loop_edges, "loop edges", "keyframes", source);
   const uint8_t* groups = s[kFeatureVectors].data();
-  for (uint64_t g = 0; g < c.feature_vector_groups; ++g) {
-    sum_indices += Load<uint32_t>(groups + kFvGroupSize * g + 4);
+  for (uint64_t kf = 0, g = 0; kf < c.keyframes; ++kf) {
+    starts[kf].index = sum.index;
+    const uint64_t end = kf + 1 < c.keyframes ? starts[kf + 1].group : sum.group;
+    for (; g < end; ++g) sum.index += Load<uint32_t>(groups + kFvGroupSize * g + 4);
   }
-  CheckTotal(sum_indices, c.feature_vector_indices, "feature vector indices", "feature_vectors",
+  CheckTotal(sum.index, c.feature_vector_indices, "feature vector indices", "feature_vectors",
              source);
-  uint64_t sum_observations = 0;
   const uint8_t* mp_bytes = s[kMapPoints].data();
+  std::vector<uint64_t> first_observation(c.map_points);
+  uint64_t sum_observations = 0;
   for (uint64_t i = 0; i < c.map_points; ++i) {
+    first_observation[i] = sum_observations;
     sum_observations += Load<uint32_t>(mp_bytes + kMapPointRecordSize * i + 128);
   }
   CheckTotal(sum_observations, c.observations, "observations", "map_points", source);
 
-  // Keyframes. Cursors into the concatenated arrays; all reads below stay
-  // within the sections by the checks above.
-  const uint8_t* keypoints = s[kKeypoints].data();
-  const uint8_t* descriptors = s[kDescriptors].data();
-  const uint8_t* kf_points = s[kKfPoints].data();
-  const uint8_t* bow = s[kBow].data();
-  const uint8_t* indices = groups + kFvGroupSize * c.feature_vector_groups;
-  const uint8_t* connections = s[kGraph].data();
-  const uint8_t* loops = connections + kConnectionSize * c.connections;
+  // Records. Every read below stays within its section by the checks above.
+  // The work is mostly first touches of fresh memory, which two threads
+  // share well (small maps stay on this thread); the result does not depend
+  // on which thread parses what.
+  WorkerPool pool(c.keypoints >= 10000 ? 2 : 1);
   map.keyframes.resize(c.keyframes);
-  for (uint64_t i = 0; i < c.keyframes; ++i) {
-    const uint8_t* r = kf_bytes + kKeyframeRecordSize * i;
-    KeyFrameRecord& kf = map.keyframes[i];
-    kf.id = Load<uint64_t>(r + 0);
-    kf.frame_id = Load<uint64_t>(r + 8);
-    kf.timestamp = Load<double>(r + 16);
-    MapPose& T = kf.T_cam_world;
-    T.qw = Load<double>(r + 24);
-    T.qx = Load<double>(r + 32);
-    T.qy = Load<double>(r + 40);
-    T.qz = Load<double>(r + 48);
-    T.tx = Load<double>(r + 56);
-    T.ty = Load<double>(r + 64);
-    T.tz = Load<double>(r + 72);
-    kf.parent = Load<uint64_t>(r + 80);
-    const uint32_t n = Load<uint32_t>(r + 88);
-    const uint32_t n_bow = Load<uint32_t>(r + 92);
-    const uint32_t n_groups = Load<uint32_t>(r + 96);
-    const uint32_t n_connections = Load<uint32_t>(r + 100);
-    const uint32_t n_loops = Load<uint32_t>(r + 104);
-
-    kf.keypoints.resize(n);
-    for (uint32_t k = 0; k < n; ++k) {
-      MapKeypoint& kp = kf.keypoints[k];
-      const uint8_t* q = keypoints + kKeypointRecordSize * k;
-      kp.pixel_x = Load<float>(q + 0);
-      kp.pixel_y = Load<float>(q + 4);
-      kp.undistorted_x = Load<float>(q + 8);
-      kp.undistorted_y = Load<float>(q + 12);
-      kp.angle_deg = Load<float>(q + 16);
-      kp.response = Load<float>(q + 20);
-      kp.depth = Load<float>(q + 24);
-      kp.u_right = Load<float>(q + 28);
-      kp.octave = q[32];
-    }
-    keypoints += kKeypointRecordSize * n;
-    kf.descriptors.resize(n);
-    if (n > 0) std::memcpy(kf.descriptors.data(), descriptors, kDescriptorSize * n);
-    descriptors += kDescriptorSize * n;
-    kf.map_point_ids.resize(n);
-    if (n > 0) std::memcpy(kf.map_point_ids.data(), kf_points, 8 * size_t{n});
-    kf_points += 8 * size_t{n};
-
-    kf.bow.resize(n_bow);
-    for (uint32_t k = 0; k < n_bow; ++k) {
-      kf.bow[k] = {Load<uint32_t>(bow + kBowEntrySize * k),
-                   Load<double>(bow + kBowEntrySize * k + 8)};
-    }
-    bow += kBowEntrySize * n_bow;
-
-    kf.feature_vector.resize(n_groups);
-    for (uint32_t g = 0; g < n_groups; ++g) {
-      auto& [node, list] = kf.feature_vector[g];
-      node = Load<uint32_t>(groups);
-      const uint32_t count = Load<uint32_t>(groups + 4);
-      groups += kFvGroupSize;
-      list.resize(count);
-      if (count > 0) std::memcpy(list.data(), indices, kFvIndexSize * count);
-      indices += kFvIndexSize * count;
-    }
-
-    kf.connections.resize(n_connections);
-    for (uint32_t k = 0; k < n_connections; ++k) {
-      kf.connections[k] = {Load<uint64_t>(connections), Load<int32_t>(connections + 8)};
-      connections += kConnectionSize;
-    }
-    kf.loop_edges.resize(n_loops);
-    if (n_loops > 0) std::memcpy(kf.loop_edges.data(), loops, kLoopEdgeSize * n_loops);
-    loops += kLoopEdgeSize * n_loops;
-  }
-
-  // Map points.
+  pool.ParallelFor(c.keyframes, [&](size_t i) {
+    ParseKeyframe(s, c, starts[i], kf_bytes + kKeyframeRecordSize * i, &map.keyframes[i]);
+  });
   const uint8_t* observations = s[kObservations].data();
   map.map_points.resize(c.map_points);
-  for (uint64_t i = 0; i < c.map_points; ++i) {
-    const uint8_t* r = mp_bytes + kMapPointRecordSize * i;
-    MapPointRecord& mp = map.map_points[i];
-    mp.id = Load<uint64_t>(r + 0);
-    for (int k = 0; k < 3; ++k) {
-      mp.position[k] = Load<double>(r + 8 + 8 * k);
-      mp.normal[k] = Load<double>(r + 32 + 8 * k);
+  constexpr uint64_t kPointsPerTask = 256;
+  pool.ParallelFor((c.map_points + kPointsPerTask - 1) / kPointsPerTask, [&](size_t task) {
+    const uint64_t end = std::min<uint64_t>(c.map_points, (task + 1) * kPointsPerTask);
+    for (uint64_t i = task * kPointsPerTask; i < end; ++i) {
+      ParseMapPoint(mp_bytes + kMapPointRecordSize * i,
+                    observations + kObservationSize * first_observation[i], &map.map_points[i]);
     }
-    mp.min_distance = Load<double>(r + 56);
-    mp.max_distance = Load<double>(r + 64);
-    std::memcpy(mp.descriptor.bytes, r + 72, kDescriptorSize);
-    mp.visible = Load<int32_t>(r + 104);
-    mp.found = Load<int32_t>(r + 108);
-    mp.reference_keyframe = Load<uint64_t>(r + 112);
-    mp.first_keyframe = Load<uint64_t>(r + 120);
-    const uint32_t n = Load<uint32_t>(r + 128);
-    mp.observations.resize(n);
-    for (uint32_t k = 0; k < n; ++k) {
-      mp.observations[k] = {Load<uint64_t>(observations), Load<uint32_t>(observations + 8)};
-      observations += kObservationSize;
-    }
-  }
+  });
 
   ValidateMapData(map, source);
   if (info != nullptr) *info = h.info;
@@ -656,7 +697,10 @@ MapFileInfo ReadMapFileInfo(std::span<const uint8_t> file, const std::string& so
 
 MapData ParseMapMeta(std::span<const uint8_t> file, const std::string& source, MapCounts* counts) {
   const ParsedHeader h = ParseHeader(file, source);
-  return ParseMeta(FindSection(h, kMeta, source), source, counts);
+  const MapSectionInfo& meta = FindSection(h, kMeta, source);
+  const std::span<const uint8_t> bytes = SectionOf(h, meta);
+  CheckSectionSum(kMeta, Checksum64(bytes), meta, source);
+  return ParseMeta(bytes, source, counts);
 }
 
 MapData ParseMap(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info) {

@@ -22,6 +22,7 @@ namespace {
 
 using testing::MakeTestMap;
 using testing::TempDir;
+using testing::TestMapOptions;
 
 template <typename... Args>
 std::string Cat(const Args&... args) {
@@ -141,6 +142,39 @@ TEST(MapFile, RoundTripEqual) {
   EXPECT_EQ(info.sections[3].name, "descriptors");
   for (const MapSectionInfo& s : info.sections) {
     EXPECT_EQ(s.offset % (s.name == "descriptors" ? 32 : 8), 0u) << s.name;
+  }
+}
+
+// Maps of 10000 keypoints or more parse on two threads, each keyframe from
+// its own start in the concatenated arrays: keyframes with no feature-vector
+// groups, bag of words, connections or loop edges among others must not
+// shift anything.
+TEST(MapFile, RoundTripEqualWhenParsedInParallel) {
+  TestMapOptions options;
+  options.keyframes = 40;
+  options.keypoints = 300;
+  options.map_points = 1500;
+  for (const bool with_empty_records : {false, true}) {
+    MapData map = MakeTestMap(31, options);
+    // Feature vectors that differ from keyframe to keyframe (i + 2 groups).
+    for (size_t i = 0; i < map.keyframes.size(); ++i) {
+      KeyFrameRecord& kf = map.keyframes[i];
+      kf.feature_vector.assign(i + 2, {});
+      for (uint32_t g = 0; g < i + 2; ++g) kf.feature_vector[g].first = 100 + g;
+      for (uint32_t k = 0; k < kf.keypoints.size(); ++k) {
+        kf.feature_vector[k % (i + 2)].second.push_back(k);
+      }
+    }
+    if (with_empty_records) {
+      for (size_t i : {0, 7, 8, 39}) {
+        map.keyframes[i].feature_vector.clear();
+        map.keyframes[i].bow.clear();
+      }
+      map.keyframes[5].feature_vector[0].second.clear();
+    }
+    ASSERT_NO_THROW(ValidateMapData(map, "test map"));
+    const MapData back = ParseMap(EncodeMap(map), "map.rrm", nullptr);
+    ExpectMapsEqual(map, back);
   }
 }
 
