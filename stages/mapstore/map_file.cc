@@ -12,7 +12,6 @@
 #include "common/binary_header.h"
 #include "common/errors.h"
 #include "common/formats.h"
-#include "common/worker_pool.h"
 
 namespace rrslam {
 namespace {
@@ -371,14 +370,17 @@ void CheckTotal(uint64_t total, uint64_t expected, const char* what, const char*
   }
 }
 
-// Where one keyframe's entries start in the concatenated arrays (counts of
+// Positions in the concatenated arrays of keyframe entries (counts of
 // entries, not bytes).
-struct KeyframeStart {
+struct KeyframeCursor {
   uint64_t keypoint = 0, bow = 0, group = 0, index = 0, connection = 0, loop = 0;
 };
 
-void ParseKeyframe(const Sections& s, const MapCounts& c, const KeyframeStart& at, const uint8_t* r,
+// Parses the keyframe of record `r`, whose entries start at `*cursor`, and
+// moves `*cursor` past them.
+void ParseKeyframe(const Sections& s, const MapCounts& c, const uint8_t* r, KeyframeCursor* cursor,
                    KeyFrameRecord* out) {
+  KeyframeCursor& at = *cursor;
   KeyFrameRecord& kf = *out;
   kf.id = Load<uint64_t>(r + 0);
   kf.frame_id = Load<uint64_t>(r + 8);
@@ -441,6 +443,7 @@ void ParseKeyframe(const Sections& s, const MapCounts& c, const KeyframeStart& a
     list.resize(count);
     if (count > 0) std::memcpy(list.data(), indices, kFvIndexSize * count);
     indices += kFvIndexSize * count;
+    at.index += count;
   }
 
   const uint8_t* connections = s[kGraph].data() + kConnectionSize * at.connection;
@@ -453,9 +456,17 @@ void ParseKeyframe(const Sections& s, const MapCounts& c, const KeyframeStart& a
       s[kGraph].data() + kConnectionSize * c.connections + kLoopEdgeSize * at.loop;
   kf.loop_edges.resize(n_loops);
   if (n_loops > 0) std::memcpy(kf.loop_edges.data(), loops, kLoopEdgeSize * n_loops);
+
+  at.keypoint += n;
+  at.bow += n_bow;
+  at.group += n_groups;
+  at.connection += n_connections;
+  at.loop += n_loops;
 }
 
-void ParseMapPoint(const uint8_t* r, const uint8_t* observations, MapPointRecord* out) {
+// Parses the map point of record `r`, whose observations start at
+// `observations`; returns the end of its observations.
+const uint8_t* ParseMapPoint(const uint8_t* r, const uint8_t* observations, MapPointRecord* out) {
   MapPointRecord& mp = *out;
   mp.id = Load<uint64_t>(r + 0);
   for (int k = 0; k < 3; ++k) {
@@ -475,6 +486,7 @@ void ParseMapPoint(const uint8_t* r, const uint8_t* observations, MapPointRecord
     mp.observations[k] = {Load<uint64_t>(observations + kObservationSize * k),
                           Load<uint32_t>(observations + kObservationSize * k + 8)};
   }
+  return observations + kObservationSize * n;
 }
 
 MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info) {
@@ -497,13 +509,10 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
   }
 
   // Per-keyframe counts, summed (in 64 bits: each is 32-bit) and compared with
-  // the totals before any per-keyframe array is filled. Each keyframe's
-  // start in the concatenated arrays is kept, so keyframes parse in parallel.
+  // the totals before any per-keyframe array is filled.
   const uint8_t* kf_bytes = s[kKeyframes].data();
-  std::vector<KeyframeStart> starts(c.keyframes);
-  KeyframeStart sum;
+  KeyframeCursor sum;
   for (uint64_t i = 0; i < c.keyframes; ++i) {
-    starts[i] = sum;
     const uint8_t* r = kf_bytes + kKeyframeRecordSize * i;
     sum.keypoint += Load<uint32_t>(r + 88);
     sum.bow += Load<uint32_t>(r + 92);
@@ -517,41 +526,30 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
   CheckTotal(sum.connection, c.connections, "connections", "keyframes", source);
   CheckTotal(sum.loop, c.loop_edges, "loop edges", "keyframes", source);
   const uint8_t* groups = s[kFeatureVectors].data();
-  for (uint64_t kf = 0, g = 0; kf < c.keyframes; ++kf) {
-    starts[kf].index = sum.index;
-    const uint64_t end = kf + 1 < c.keyframes ? starts[kf + 1].group : sum.group;
-    for (; g < end; ++g) sum.index += Load<uint32_t>(groups + kFvGroupSize * g + 4);
+  for (uint64_t g = 0; g < c.feature_vector_groups; ++g) {
+    sum.index += Load<uint32_t>(groups + kFvGroupSize * g + 4);
   }
   CheckTotal(sum.index, c.feature_vector_indices, "feature vector indices", "feature_vectors",
              source);
   const uint8_t* mp_bytes = s[kMapPoints].data();
-  std::vector<uint64_t> first_observation(c.map_points);
   uint64_t sum_observations = 0;
   for (uint64_t i = 0; i < c.map_points; ++i) {
-    first_observation[i] = sum_observations;
     sum_observations += Load<uint32_t>(mp_bytes + kMapPointRecordSize * i + 128);
   }
   CheckTotal(sum_observations, c.observations, "observations", "map_points", source);
 
   // Records. Every read below stays within its section by the checks above.
-  // The work is mostly first touches of fresh memory, which two threads
-  // share well (small maps stay on this thread); the result does not depend
-  // on which thread parses what.
-  WorkerPool pool(c.keypoints >= 10000 ? 2 : 1);
   map.keyframes.resize(c.keyframes);
-  pool.ParallelFor(c.keyframes, [&](size_t i) {
-    ParseKeyframe(s, c, starts[i], kf_bytes + kKeyframeRecordSize * i, &map.keyframes[i]);
-  });
+  KeyframeCursor at;
+  for (uint64_t i = 0; i < c.keyframes; ++i) {
+    ParseKeyframe(s, c, kf_bytes + kKeyframeRecordSize * i, &at, &map.keyframes[i]);
+  }
   const uint8_t* observations = s[kObservations].data();
   map.map_points.resize(c.map_points);
-  constexpr uint64_t kPointsPerTask = 256;
-  pool.ParallelFor((c.map_points + kPointsPerTask - 1) / kPointsPerTask, [&](size_t task) {
-    const uint64_t end = std::min<uint64_t>(c.map_points, (task + 1) * kPointsPerTask);
-    for (uint64_t i = task * kPointsPerTask; i < end; ++i) {
-      ParseMapPoint(mp_bytes + kMapPointRecordSize * i,
-                    observations + kObservationSize * first_observation[i], &map.map_points[i]);
-    }
-  });
+  for (uint64_t i = 0; i < c.map_points; ++i) {
+    observations =
+        ParseMapPoint(mp_bytes + kMapPointRecordSize * i, observations, &map.map_points[i]);
+  }
 
   ValidateMapData(map, source);
   if (info != nullptr) *info = h.info;

@@ -145,11 +145,10 @@ TEST(MapFile, RoundTripEqual) {
   }
 }
 
-// Maps of 10000 keypoints or more parse on two threads, each keyframe from
-// its own start in the concatenated arrays: keyframes with no feature-vector
-// groups, bag of words, connections or loop edges among others must not
-// shift anything.
-TEST(MapFile, RoundTripEqualWhenParsedInParallel) {
+// Each keyframe's entries follow the previous keyframe's in the concatenated
+// arrays: keyframes of different sizes, and with no feature-vector groups or
+// bag of words among others, must not shift anything.
+TEST(MapFile, RoundTripEqualWithKeyframesOfEveryShape) {
   TestMapOptions options;
   options.keyframes = 40;
   options.keypoints = 300;

@@ -4,14 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <memory>
 #include <optional>
-#include <thread>
 #include <utility>
 
 #include "common/errors.h"
 #include "common/text.h"
+#include "common/worker_pool.h"
 #include "stages/track/data/frame.h"
 
 namespace rrslam {
@@ -235,56 +234,40 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
                  source, data.bow_levels_up, bow_levels_up);
   }
 
-  // Each keyframe's frame (features, pose, bag of words), built on two
-  // threads (independent per keyframe; the result does not depend on the
-  // split), then the keyframes, in id order.
+  // Each keyframe's frame (features, pose, bag of words), then the
+  // keyframes, in id order. Frames are independent: recomputed bags of words
+  // (CPU-bound) are built on two threads; otherwise the work is mostly first
+  // touches of fresh memory, which stays on this thread, whose heap
+  // ReserveHeap prepared (track.cc). The result does not depend on the split.
   std::vector<std::optional<Frame>> frames(data.keyframes.size());
-  auto build = [&](size_t begin, size_t end) {
-    for (size_t k = begin; k < end; ++k) {
-      KeyFrameRecord& r = data.keyframes[k];
-      std::vector<Keypoint> keypoints(r.keypoints.size());
-      for (size_t i = 0; i < keypoints.size(); ++i) {
-        const MapKeypoint& m = r.keypoints[i];
-        Keypoint& kp = keypoints[i];
-        kp.pixel = {m.pixel_x, m.pixel_y};
-        kp.undistorted = {m.undistorted_x, m.undistorted_y};
-        kp.angle_deg = m.angle_deg;
-        kp.octave = m.octave;
-        kp.response = m.response;
-        kp.depth = m.depth;
-      }
-      Frame& frame = frames[k].emplace(
-          r.frame_id, r.timestamp,
-          BuildFrameFeatures(sensor, std::move(keypoints), std::move(r.descriptors)));
-      frame.SetPose(FromMapPose(r.T_cam_world));
-      if (recompute_bow) {
-        frame.ComputeBow(vocabulary, bow_levels_up);
-      } else {
-        BowVector bow;
-        bow.entries = std::move(r.bow);
-        FeatureVector fv;
-        fv.entries = std::move(r.feature_vector);
-        frame.SetBow(std::move(bow), std::move(fv));
-      }
+  WorkerPool pool(recompute_bow ? 2 : 1);
+  pool.ParallelFor(frames.size(), [&](size_t k) {
+    KeyFrameRecord& r = data.keyframes[k];
+    std::vector<Keypoint> keypoints(r.keypoints.size());
+    for (size_t i = 0; i < keypoints.size(); ++i) {
+      const MapKeypoint& m = r.keypoints[i];
+      Keypoint& kp = keypoints[i];
+      kp.pixel = {m.pixel_x, m.pixel_y};
+      kp.undistorted = {m.undistorted_x, m.undistorted_y};
+      kp.angle_deg = m.angle_deg;
+      kp.octave = m.octave;
+      kp.response = m.response;
+      kp.depth = m.depth;
     }
-  };
-  const size_t half = frames.size() / 2;
-  {
-    std::exception_ptr errors[2];
-    auto guarded = [&](int part, size_t begin, size_t end) {
-      try {
-        build(begin, end);
-      } catch (...) {
-        errors[part] = std::current_exception();
-      }
-    };
-    std::thread second(guarded, 1, half, frames.size());
-    guarded(0, 0, half);
-    second.join();
-    for (const std::exception_ptr& e : errors) {
-      if (e) std::rethrow_exception(e);
+    Frame& frame = frames[k].emplace(
+        r.frame_id, r.timestamp,
+        BuildFrameFeatures(sensor, std::move(keypoints), std::move(r.descriptors)));
+    frame.SetPose(FromMapPose(r.T_cam_world));
+    if (recompute_bow) {
+      frame.ComputeBow(vocabulary, bow_levels_up);
+    } else {
+      BowVector bow;
+      bow.entries = std::move(r.bow);
+      FeatureVector fv;
+      fv.entries = std::move(r.feature_vector);
+      frame.SetBow(std::move(bow), std::move(fv));
     }
-  }
+  });
   std::vector<KeyFrame*> keyframes;
   keyframes.reserve(data.keyframes.size());
   for (size_t k = 0; k < frames.size(); ++k) {

@@ -1,0 +1,76 @@
+#include "common/heap_reserve.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace rrslam {
+namespace {
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kSanitizerAllocator = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+constexpr bool kSanitizerAllocator = true;
+#else
+constexpr bool kSanitizerAllocator = false;
+#endif
+#else
+constexpr bool kSanitizerAllocator = false;
+#endif
+
+// The mappings of this process advised for transparent huge pages ("hg" in
+// their VmFlags, /proc/self/smaps), as [begin, end) address ranges.
+std::vector<std::pair<uintptr_t, uintptr_t>> HugePageMappings() {
+  std::vector<std::pair<uintptr_t, uintptr_t>> out;
+  std::ifstream smaps("/proc/self/smaps");
+  std::string line;
+  uintptr_t begin = 0, end = 0;
+  while (std::getline(smaps, line)) {
+    uintptr_t b = 0, e = 0;
+    char dash = 0;
+    std::istringstream header(line);
+    if (header >> std::hex >> b >> dash >> e && dash == '-') {
+      begin = b;
+      end = e;
+    } else if (line.rfind("VmFlags:", 0) == 0 && (line + " ").find(" hg ") != std::string::npos) {
+      out.emplace_back(begin, end);
+    }
+  }
+  return out;
+}
+
+TEST(ReserveHeap, NothingToReserve) { EXPECT_EQ(ReserveHeap(0), 0u); }
+
+// A burst of allocations after the reservation, on this thread, lands in
+// memory advised for transparent huge pages. (Not every block: one may reuse
+// a free chunk from before.)
+TEST(ReserveHeap, ABurstOfAllocationsLandsInHugePageMemory) {
+  if (kSanitizerAllocator) GTEST_SKIP() << "a sanitizer's allocator ignores glibc's settings";
+  const size_t advised = ReserveHeap(size_t{32} << 20);
+  if (advised == 0) GTEST_SKIP() << "this kernel refuses MADV_HUGEPAGE";
+  EXPECT_GE(advised, size_t{31} << 20);
+  // Sizes a map load makes: a keyframe's keypoints, a map point's list.
+  std::vector<void*> blocks;
+  for (int i = 0; i < 400; ++i) {
+    for (const size_t bytes : {size_t{36000}, size_t{160}}) blocks.push_back(std::malloc(bytes));
+  }
+  const auto ranges = HugePageMappings();
+  size_t inside = 0;
+  for (void* p : blocks) {
+    ASSERT_NE(p, nullptr);
+    const auto a = reinterpret_cast<uintptr_t>(p);
+    for (const auto& [begin, end] : ranges) inside += begin <= a && a < end;
+  }
+  for (void* p : blocks) std::free(p);
+  EXPECT_GE(inside, blocks.size() * 9 / 10) << "of " << blocks.size();
+}
+
+}  // namespace
+}  // namespace rrslam
