@@ -30,7 +30,9 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -79,9 +81,34 @@ double Max(const std::vector<double>& v) {
   return v.empty() ? 0 : *std::max_element(v.begin(), v.end());
 }
 
-// Runs `argv` and kills it with SIGKILL after `delay_s` seconds unless it
-// ended before. Returns true when it was killed (false: it ended on its own).
-bool RunAndKill(const std::vector<std::string>& argv, double delay_s) {
+// Temporary files a save into `target` makes (rrslam::AtomicFile: the
+// target's name, a random part, ".tmp", in its folder).
+std::set<std::string> TemporaryFilesOf(const fs::path& target) {
+  std::set<std::string> out;
+  const std::string prefix = target.filename().string() + ".";
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(target.parent_path(), ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(prefix, 0) == 0 && name.size() > 4 &&
+        name.compare(name.size() - 4, 4, ".tmp") == 0) {
+      out.insert(name);
+    }
+  }
+  return out;
+}
+
+// A run of a command that saves into a file.
+struct SaveRun {
+  bool killed = false;            // False: it ended on its own.
+  std::optional<double> save_ms;  // From its temporary file's creation to its end.
+};
+
+// Runs `argv`, watching for the temporary file of a save into `target`
+// (TemporaryFilesOf); with `kill_after_s`, kills it with SIGKILL that many
+// seconds after the file appears, unless it ended before.
+SaveRun RunWatchingSave(const std::vector<std::string>& argv, const fs::path& target,
+                        std::optional<double> kill_after_s) {
+  const std::set<std::string> before = TemporaryFilesOf(target);
   const pid_t pid = fork();
   if (pid == 0) {
     std::vector<char*> args;
@@ -90,15 +117,22 @@ bool RunAndKill(const std::vector<std::string>& argv, double delay_s) {
     execv(args[0], args.data());
     _exit(127);
   }
-  const auto start = rrslam::SteadyClock::now();
+  SaveRun run;
+  std::optional<rrslam::SteadyClock::time_point> save_start;
   int status = 0;
-  while (rrslam::MillisecondsSince(start) < delay_s * 1000) {
-    if (waitpid(pid, &status, WNOHANG) == pid) return false;
-    usleep(1000);
+  while (waitpid(pid, &status, WNOHANG) != pid) {
+    if (!save_start && TemporaryFilesOf(target) != before) save_start = rrslam::SteadyClock::now();
+    if (save_start && kill_after_s &&
+        rrslam::MillisecondsSince(*save_start) >= *kill_after_s * 1000) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      run.killed = WIFSIGNALED(status);
+      break;
+    }
+    usleep(200);
   }
-  kill(pid, SIGKILL);
-  waitpid(pid, &status, 0);
-  return WIFSIGNALED(status);
+  if (save_start) run.save_ms = rrslam::MillisecondsSince(*save_start);
+  return run;
 }
 
 // Counts the points of a diff list inside a box of synth.json (world frame),
@@ -422,7 +456,8 @@ int main(int argc, char** argv) {
     const std::string s = "kill -9 during --save-map (" + real_names[0] + " mapping run)";
     const fs::path original = runs / (real_names[0] + ".rrm");
     const fs::path target = runs / "killed.rrm";
-    // A run that is not killed: its duration, and the bytes it writes.
+    // Temporary files that killed runs of earlier benches left behind.
+    for (const std::string& name : TemporaryFilesOf(target)) fs::remove(runs / name);
     fs::copy_file(original, target, fs::copy_options::overwrite_existing);
     const std::string old_bytes = rrslam::ReadFileToString(target);
     const std::vector<std::string> argv_run = {(bin / "rrslam-track").string(),
@@ -439,17 +474,26 @@ int main(int argc, char** argv) {
                                                std::to_string(real_splits[0] / 4),
                                                "--save-map",
                                                target.string()};
+    // A run that is not killed: the bytes it writes, and how long its save
+    // takes.
     const auto start = rrslam::SteadyClock::now();
-    RunAndKill(argv_run, 1e9);
+    const std::optional<double> save_ms = RunWatchingSave(argv_run, target, std::nullopt).save_ms;
     const double full_s = rrslam::MillisecondsSince(start) / 1000;
     const std::string new_bytes = rrslam::ReadFileToString(target);
+    // Kills uniform over the save (from its temporary file's creation to the
+    // process's end) and 20 ms more.
+    const double window_s = (save_ms.value_or(50.0) + 20.0) / 1000;
     std::mt19937 rng(13);
-    // Most kills land in the last half second, where the map is written.
-    std::uniform_real_distribution<double> when(std::max(0.0, full_s - 0.5), full_s + 0.05);
+    std::uniform_real_distribution<double> when(0.0, window_s);
     int intact_old = 0, complete_new = 0, broken = 0, killed = 0;
+    size_t left_behind = 0;
     for (int k = 0; k < kills; ++k) {
       fs::copy_file(original, target, fs::copy_options::overwrite_existing);
-      killed += RunAndKill(argv_run, when(rng));
+      killed += RunWatchingSave(argv_run, target, when(rng)).killed;
+      for (const std::string& name : TemporaryFilesOf(target)) {
+        fs::remove(runs / name);
+        ++left_behind;
+      }
       const std::string now = rrslam::ReadFileToString(target);
       if (now == old_bytes) {
         ++intact_old;
@@ -459,13 +503,16 @@ int main(int argc, char** argv) {
         ++broken;
       }
     }
-    report.Note(s,
-                "run of " + std::to_string(full_s) + " s; kills uniform in its last 0.5 s + 50 ms");
+    report.Note(s, "run of " + std::to_string(full_s) + " s, its save (temporary file to exit) " +
+                       (save_ms ? std::to_string(*save_ms) + " ms" : std::string("not seen")) +
+                       "; kills uniform over the save + 20 ms");
     report.Add(s, {"runs killed", double(killed), "of " + std::to_string(kills), "-", true});
     report.Add(s, {"previous map intact", double(intact_old), "", "-", true});
     report.Add(s,
                {"new map complete (killed after the rename)", double(complete_new), "", "-", true});
     report.Add(s, {"map file neither (corrupt)", double(broken), "", "0", broken == 0});
+    report.Add(
+        s, {"temporary files left by killed runs (removed)", double(left_behind), "", "-", true});
   }
 
   std::ostringstream text;
