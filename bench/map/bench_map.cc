@@ -18,10 +18,13 @@
 // mapped, then mapped on in the changed room (rrslam-synth --change
 // moved-box) and in the original again; rrslam-mapstore diff counts points
 // added and removed in the changed regions. Kills: the mapping run of the
-// first real sequence is killed (SIGKILL) at random moments around its save
-// over an existing map; the previous map must be intact every time.
+// first real sequence is killed (SIGKILL) at random moments of its save over
+// an existing map (from its first bytes in the temporary file to just after
+// the rename); the previous map must be intact every time, or the new one
+// complete.
 // Writes PREFIX.txt and PREFIX.json; exit status 0 when every run completed.
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -97,18 +100,39 @@ std::set<std::string> TemporaryFilesOf(const fs::path& target) {
   return out;
 }
 
+// Whether a temporary file of `target` not in `before` has bytes: track
+// creates it when it starts (so that an unwritable path fails at once) and
+// writes it when it saves.
+bool SaveStarted(const fs::path& target, const std::set<std::string>& before) {
+  for (const std::string& name : TemporaryFilesOf(target)) {
+    std::error_code ec;
+    if (!before.count(name) && fs::file_size(target.parent_path() / name, ec) > 0 && !ec) {
+      return true;
+    }
+  }
+  return false;
+}
+
 // A run of a command that saves into a file.
 struct SaveRun {
-  bool killed = false;            // False: it ended on its own.
-  std::optional<double> save_ms;  // From its temporary file's creation to its end.
+  bool killed = false;  // False: it ended on its own.
+  // From its first bytes in the temporary file to the rename over the
+  // target (the target's inode changing) and to its end.
+  std::optional<double> rename_ms, end_ms;
 };
 
-// Runs `argv`, watching for the temporary file of a save into `target`
-// (TemporaryFilesOf); with `kill_after_s`, kills it with SIGKILL that many
-// seconds after the file appears, unless it ended before.
+uint64_t InodeOf(const fs::path& path) {
+  struct stat st {};
+  return stat(path.c_str(), &st) == 0 ? static_cast<uint64_t>(st.st_ino) : 0;
+}
+
+// Runs `argv`, watching for a save into `target` (SaveStarted); with
+// `kill_after_s`, kills it with SIGKILL that many seconds after the save
+// starts, unless it ended before.
 SaveRun RunWatchingSave(const std::vector<std::string>& argv, const fs::path& target,
                         std::optional<double> kill_after_s) {
   const std::set<std::string> before = TemporaryFilesOf(target);
+  const uint64_t old_inode = InodeOf(target);
   const pid_t pid = fork();
   if (pid == 0) {
     std::vector<char*> args;
@@ -121,7 +145,10 @@ SaveRun RunWatchingSave(const std::vector<std::string>& argv, const fs::path& ta
   std::optional<rrslam::SteadyClock::time_point> save_start;
   int status = 0;
   while (waitpid(pid, &status, WNOHANG) != pid) {
-    if (!save_start && TemporaryFilesOf(target) != before) save_start = rrslam::SteadyClock::now();
+    if (!save_start && SaveStarted(target, before)) save_start = rrslam::SteadyClock::now();
+    if (save_start && !run.rename_ms && InodeOf(target) != old_inode) {
+      run.rename_ms = rrslam::MillisecondsSince(*save_start);
+    }
     if (save_start && kill_after_s &&
         rrslam::MillisecondsSince(*save_start) >= *kill_after_s * 1000) {
       kill(pid, SIGKILL);
@@ -131,7 +158,7 @@ SaveRun RunWatchingSave(const std::vector<std::string>& argv, const fs::path& ta
     }
     usleep(200);
   }
-  if (save_start) run.save_ms = rrslam::MillisecondsSince(*save_start);
+  if (save_start) run.end_ms = rrslam::MillisecondsSince(*save_start);
   return run;
 }
 
@@ -477,12 +504,12 @@ int main(int argc, char** argv) {
     // A run that is not killed: the bytes it writes, and how long its save
     // takes.
     const auto start = rrslam::SteadyClock::now();
-    const std::optional<double> save_ms = RunWatchingSave(argv_run, target, std::nullopt).save_ms;
+    const SaveRun unkilled = RunWatchingSave(argv_run, target, std::nullopt);
     const double full_s = rrslam::MillisecondsSince(start) / 1000;
     const std::string new_bytes = rrslam::ReadFileToString(target);
-    // Kills uniform over the save (from its temporary file's creation to the
-    // process's end) and 20 ms more.
-    const double window_s = (save_ms.value_or(50.0) + 20.0) / 1000;
+    // Kills uniform from the save's first bytes to 5 ms after its rename: most
+    // before the rename (the old map must then be intact), a few after.
+    const double window_s = (unkilled.rename_ms.value_or(50.0) + 5.0) / 1000;
     std::mt19937 rng(13);
     std::uniform_real_distribution<double> when(0.0, window_s);
     int intact_old = 0, complete_new = 0, broken = 0, killed = 0;
@@ -503,9 +530,13 @@ int main(int argc, char** argv) {
         ++broken;
       }
     }
-    report.Note(s, "run of " + std::to_string(full_s) + " s, its save (temporary file to exit) " +
-                       (save_ms ? std::to_string(*save_ms) + " ms" : std::string("not seen")) +
-                       "; kills uniform over the save + 20 ms");
+    auto ms = [](std::optional<double> v) {
+      return v ? std::to_string(*v) + " ms" : std::string("not seen");
+    };
+    report.Note(s, "run of " + std::to_string(full_s) +
+                       " s; from the save's first bytes to the rename " + ms(unkilled.rename_ms) +
+                       ", to the end " + ms(unkilled.end_ms) +
+                       "; kills uniform up to 5 ms after the rename");
     report.Add(s, {"runs killed", double(killed), "of " + std::to_string(kills), "-", true});
     report.Add(s, {"previous map intact", double(intact_old), "", "-", true});
     report.Add(s,
