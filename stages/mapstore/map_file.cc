@@ -260,8 +260,9 @@ ParsedHeader ParseHeader(std::span<const uint8_t> file, const std::string& sourc
 using Sections = std::array<std::span<const uint8_t>, kNumSections>;
 
 // Finds a known section in the table (unknown ones are ignored: a newer
-// minor version may add sections).
-const MapSectionInfo& FindSection(const ParsedHeader& h, int section, const std::string& source) {
+// minor version may add sections) and checks its checksum.
+std::span<const uint8_t> CheckedSection(const ParsedHeader& h, int section,
+                                        const std::string& source) {
   const MapSectionInfo* found = nullptr;
   for (const MapSectionInfo& s : h.info.sections) {
     if (s.name != kSectionNames[section]) continue;
@@ -269,18 +270,11 @@ const MapSectionInfo& FindSection(const ParsedHeader& h, int section, const std:
     found = &s;
   }
   if (found == nullptr) throw DataError(source + ": " + SectionText(section) + " is missing");
-  return *found;
-}
-
-std::span<const uint8_t> SectionOf(const ParsedHeader& h, const MapSectionInfo& section) {
-  return h.payload.subspan(section.offset, section.size);
-}
-
-void CheckSectionSum(int section, uint64_t sum, const MapSectionInfo& table,
-                     const std::string& source) {
-  if (sum != table.checksum) {
+  const std::span<const uint8_t> bytes = h.payload.subspan(found->offset, found->size);
+  if (Checksum64(bytes) != found->checksum) {
     throw DataError(source + ": " + SectionText(section) + ": checksum mismatch (file corrupt)");
   }
+  return bytes;
 }
 
 // The known sections, each checked against its checksum, then the whole
@@ -288,11 +282,7 @@ void CheckSectionSum(int section, uint64_t sum, const MapSectionInfo& table,
 // sections this version does not know).
 Sections CheckedSections(const ParsedHeader& h, const std::string& source) {
   Sections s;
-  for (int i = 0; i < kNumSections; ++i) {
-    const MapSectionInfo& table = FindSection(h, i, source);
-    s[i] = SectionOf(h, table);
-    CheckSectionSum(i, Checksum64(s[i]), table, source);
-  }
+  for (int i = 0; i < kNumSections; ++i) s[i] = CheckedSection(h, i, source);
   if (Checksum64(h.payload) != h.payload_checksum) {
     throw DataError(source +
                     ": payload checksum mismatch outside the known sections (file corrupt)");
@@ -695,10 +685,7 @@ MapFileInfo ReadMapFileInfo(std::span<const uint8_t> file, const std::string& so
 
 MapData ParseMapMeta(std::span<const uint8_t> file, const std::string& source, MapCounts* counts) {
   const ParsedHeader h = ParseHeader(file, source);
-  const MapSectionInfo& meta = FindSection(h, kMeta, source);
-  const std::span<const uint8_t> bytes = SectionOf(h, meta);
-  CheckSectionSum(kMeta, Checksum64(bytes), meta, source);
-  return ParseMeta(bytes, source, counts);
+  return ParseMeta(CheckedSection(h, kMeta, source), source, counts);
 }
 
 MapData ParseMap(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info) {

@@ -287,7 +287,6 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
                              r.max_distance);
     p->SetDescriptor(r.descriptor);
     p->RestoreSaved(r.visible, r.found, r.first_keyframe);
-    p->ReserveObservations(r.observations.size());
     for (const auto& [kf_id, index] : r.observations) {
       map->AddObservation(p, keyframe(kf_id), index);
     }

@@ -51,8 +51,6 @@ class MapPoint {
   // Adds an observation; no-op when the keyframe already observes the point.
   // Only updates this point: Map::AddObservation updates both sides.
   void AddObservation(KeyFrame* keyframe, uint32_t index);
-  // Room for `n` observations (a point being loaded with all of them).
-  void ReserveObservations(size_t n) { observations_.reserve(n); }
   // Removes the observation of `keyframe`; returns false when there was none.
   // When it was the reference keyframe, the first remaining observer becomes it.
   bool RemoveObservation(const KeyFrame* keyframe);
