@@ -19,8 +19,8 @@
 #    (--change moved-box): points added and removed in those places
 #    (rrslam-mapstore diff), no jump in the trajectory.
 #  - BENCH_MAP_KILLS SIGKILLs at random moments of a --save-map over an
-#    existing map (from the save's first bytes in its temporary file to 5 ms
-#    after its rename, as an unkilled run times them): the previous map is
+#    existing map (from the save's first bytes in its temporary file to 1.25
+#    x the time to its rename, as an unkilled run times it): the previous map is
 #    intact every time (or the new one is complete).
 # Result: bench/results/map-<UTC date>[-BENCH_MAP_TAG].txt (and .json).
 BENCH_MAP_DIR ?= $(BUILD_DIR)/bench-data/map

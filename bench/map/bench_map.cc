@@ -507,9 +507,11 @@ int main(int argc, char** argv) {
     const SaveRun unkilled = RunWatchingSave(argv_run, target, std::nullopt);
     const double full_s = rrslam::MillisecondsSince(start) / 1000;
     const std::string new_bytes = rrslam::ReadFileToString(target);
-    // Kills uniform from the save's first bytes to 5 ms after its rename: most
-    // before the rename (the old map must then be intact), a few after.
-    const double window_s = (unkilled.rename_ms.value_or(50.0) + 5.0) / 1000;
+    // Kills uniform from the save's first bytes to a quarter past its rename
+    // (1.25 x that time): most before the rename (the old map must then be
+    // intact), a few after. A fixed margin after the rename would outweigh a
+    // save of a few milliseconds.
+    const double window_s = 1.25 * unkilled.rename_ms.value_or(50.0) / 1000;
     std::mt19937 rng(13);
     std::uniform_real_distribution<double> when(0.0, window_s);
     int intact_old = 0, complete_new = 0, broken = 0, killed = 0;
@@ -536,7 +538,7 @@ int main(int argc, char** argv) {
     report.Note(s, "run of " + std::to_string(full_s) +
                        " s; from the save's first bytes to the rename " + ms(unkilled.rename_ms) +
                        ", to the end " + ms(unkilled.end_ms) +
-                       "; kills uniform up to 5 ms after the rename");
+                       "; kills uniform up to 1.25 x the rename's time");
     report.Add(s, {"runs killed", double(killed), "of " + std::to_string(kills), "-", true});
     report.Add(s, {"previous map intact", double(intact_old), "", "-", true});
     report.Add(s,
