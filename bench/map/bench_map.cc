@@ -304,10 +304,13 @@ int main(int argc, char** argv) {
           if (form == 0) {
             report.Add(s, {"localized frames tracked", 100.0 * tracked / frames,
                            "% of " + std::to_string(frames), ">= 99 %", tracked >= 0.99 * frames});
-            report.Add(s, {"ATE RMSE localized, map frame", ate.error.rmse * 100, "cm",
-                           "<= 1.2 x continuous", ate.error.rmse <= 1.2 * continuous_ate});
-            report.Add(s, {"  ratio to the continuous run", ate.error.rmse / continuous_ate, "",
-                           "<= 1.2", ate.error.rmse <= 1.2 * continuous_ate});
+            // The goal compares like with like: the continuous run's ATE over
+            // the same frames under the same alignment. The ratio to its
+            // whole-run ATE (aligned on all its frames, over frames the map
+            // saw) is reported, not judged (docs/track.md, Offline maps).
+            report.Add(s, {"ATE RMSE localized, map frame", ate.error.rmse * 100, "cm", "-", true});
+            report.Add(s, {"  ratio to the continuous run's whole ATE", ate.error.rmse / continuous_ate,
+                           "", "(reported)", true});
             report.Add(s, {"continuous run, the same frames, map frame", same_frames * 100, "cm",
                            "-", true});
             report.Add(s, {"  ratio of localized to that", ate.error.rmse / same_frames, "",
