@@ -309,8 +309,8 @@ int main(int argc, char** argv) {
             // whole-run ATE (aligned on all its frames, over frames the map
             // saw) is reported, not judged (docs/track.md, Offline maps).
             report.Add(s, {"ATE RMSE localized, map frame", ate.error.rmse * 100, "cm", "-", true});
-            report.Add(s, {"  ratio to the continuous run's whole ATE", ate.error.rmse / continuous_ate,
-                           "", "(reported)", true});
+            report.Add(s, {"  ratio to the continuous run's whole ATE",
+                           ate.error.rmse / continuous_ate, "", "(reported)", true});
             report.Add(s, {"continuous run, the same frames, map frame", same_frames * 100, "cm",
                            "-", true});
             report.Add(s, {"  ratio of localized to that", ate.error.rmse / same_frames, "",
