@@ -9,11 +9,15 @@
 #    starts with --load-map --localization-only --first-frame N: process start
 #    to first pose (<= 300 ms), map load (<= 50 ms), frames tracked (>= 99%),
 #    ATE of the localized frames in the map's frame, the ground truth aligned
-#    on the mapping run (<= 1.2 x the continuous run's ATE); the same start
-#    with the text vocabulary (reported); the map loaded and saved again in
-#    process (byte-identical); the keyframe database from the stored bags of
-#    words and, for comparison, from the descriptors; restore mapping on the
-#    unchanged frames.
+#    on the mapping run (<= 1.2 x the continuous run's ATE over the same
+#    frames under the same alignment); the same start with the text
+#    vocabulary (reported); the map loaded and saved again in process
+#    (byte-identical); the keyframe database from the stored bags of words
+#    and, for comparison, from the descriptors; relocalization on the map
+#    from single frames (every 10th frame of the sequence, one attempt each,
+#    in process: frames relocalized, attempt median <= 15 ms and p95 <= 40 ms
+#    as issue 12 asks, position error in the map's frame); restore mapping on
+#    the unchanged frames.
 #  - Restore mapping: the synthetic room (rrslam-synth loop, 600 frames, seed 1)
 #    mapped, then mapped on in the same room with a box moved and one added
 #    (--change moved-box): points added and removed in those places

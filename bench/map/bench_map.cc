@@ -4,7 +4,7 @@
 //             [--real NAME --real-dir DIR --real-settings YAML --real-vocab FILE
 //              --real-vocab-text FILE --real-split N]...
 //             [--synth-original DIR --synth-changed DIR --synth-vocab FILE]
-//             [--starts N] [--kills N] --machine TEXT --out PREFIX
+//             [--starts N] [--kills N] [--reloc-stride N] --machine TEXT --out PREFIX
 // For each real sequence: the map of frames [0, N) is saved (--save-map); the
 // whole sequence is tracked continuously; then, N cold starts each, frames
 // [N, end) are tracked with --load-map --localization-only, with the binary
@@ -14,7 +14,8 @@
 // to the localized trajectory: rrslam-eval ate --align-with). The saved map is
 // also loaded and saved again in process (byte-identical), and its keyframe
 // database rebuilt from the stored bags of words and from the descriptors
-// (the two ways a loader could get it). Synthetic: the original room is
+// (the two ways a loader could get it), and every --reloc-stride-th frame of
+// the sequence is relocalized alone on it (SweepRelocalization). Synthetic: the original room is
 // mapped, then mapped on in the changed room (rrslam-synth --change
 // moved-box) and in the original again; rrslam-mapstore diff counts points
 // added and removed in the changed regions. Kills: the mapping run of the
@@ -42,16 +43,21 @@
 #include "bench/common/bench_report.h"
 #include "common/atomic_file.h"
 #include "common/clock.h"
+#include "common/dataset.h"
 #include "common/settings.h"
 #include "common/text.h"
 #include "common/trajectory.h"
 #include "stages/eval/ate.h"
+#include "stages/extract/orb_extractor.h"
 #include "stages/mapstore/map_file.h"
 #include "stages/track/data/frame.h"
 #include "stages/track/data/keyframe_database.h"
 #include "stages/track/data/map.h"
 #include "stages/track/data/map_io.h"
 #include "stages/track/data/sensor_model.h"
+#include "stages/track/module/local_mapper.h"
+#include "stages/track/module/tracker.h"
+#include "stages/track/run_report.h"
 #include "stages/vocab/vocabulary.h"
 
 namespace {
@@ -182,6 +188,70 @@ int PointsIn(const nlohmann::json& points, const nlohmann::json& box,
   return n;
 }
 
+// Relocalization from single frames on a saved map, in process.
+struct RelocalizationSweep {
+  int attempts[2] = {0, 0};  // [0]: frames the map was built from; [1]: later ones.
+  int relocalized[2] = {0, 0};
+  std::vector<double> attempt_ms;  // Every attempt.
+  std::vector<double> error_cm;    // Relocalized poses' position error, map frame.
+};
+
+// Every `stride`-th frame of the sequence is given alone to a tracker started
+// lost on the map, as `--load-map --localization-only` starts: that frame
+// makes exactly one relocalization attempt, timed as rrslam-track times it
+// (the frame's bag of words, candidates, BoW matching, PnP RANSAC, pose
+// optimization, projection searches; feature extraction excluded). A
+// relocalized pose is compared with the ground truth in the map's frame
+// (`alignment`: the ground truth aligned on the mapping run).
+RelocalizationSweep SweepRelocalization(const fs::path& dir, const fs::path& settings_path,
+                                        const fs::path& vocabulary_path, const fs::path& map_path,
+                                        int split, int stride, const rrslam::Trajectory& gt,
+                                        const rrslam::AteAlignment& alignment) {
+  const rrslam::Settings settings = rrslam::ReadSettings(settings_path);
+  const rrslam::Vocabulary vocabulary = rrslam::Vocabulary::Load(vocabulary_path);
+  const std::string bytes = rrslam::ReadFileToString(map_path);
+  rrslam::MapData data = rrslam::ParseMap(
+      std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()),
+      map_path.string());
+  const int levels_up = data.bow_levels_up;
+  const rrslam::SensorModel sensor(settings, data.camera.width, data.camera.height);
+  rrslam::Map map;
+  rrslam::KeyFrameDatabase database(vocabulary);
+  rrslam::LoadMapData(std::move(data), sensor, vocabulary, levels_up, &map, &database,
+                      map_path.string());
+  rrslam::TrackerOptions tracker_options;
+  tracker_options.localization_only = true;
+  tracker_options.bow_levels_up = levels_up;
+  rrslam::LocalMapperOptions mapper_options;
+  mapper_options.bow_levels_up = levels_up;
+  rrslam::LocalMapper mapper(sensor, vocabulary, &map, &database, mapper_options);
+  rrslam::OrbExtractor extractor(settings.orb);
+  const rrslam::RgbdSequence sequence = rrslam::RgbdSequence::Open(dir);
+
+  RelocalizationSweep sweep;
+  for (size_t i = 0; i < sequence.size(); i += static_cast<size_t>(stride)) {
+    std::vector<rrslam::Keypoint> keypoints;
+    std::vector<rrslam::OrbDescriptor> descriptors;
+    extractor.Extract(sequence.LoadGray(i), &keypoints, &descriptors);
+    rrslam::FinishKeypoints(sensor.camera, sequence.LoadDepthMetres(i, settings.depth_map_factor),
+                            &keypoints);
+    const double timestamp = sequence.frame(i).rgb_timestamp;
+    rrslam::Tracker tracker(sensor, vocabulary, &map, &mapper, database, tracker_options);
+    tracker.StartOnLoadedMap();
+    const bool tracked = tracker.Track(rrslam::Frame(
+        0, timestamp,
+        rrslam::BuildFrameFeatures(sensor, std::move(keypoints), std::move(descriptors))));
+    const int part = static_cast<int>(i) < split ? 0 : 1;
+    ++sweep.attempts[part];
+    for (double ms : tracker.relocalization_ms()) sweep.attempt_ms.push_back(ms);
+    if (!tracked) continue;
+    ++sweep.relocalized[part];
+    const rrslam::Trajectory pose = {{timestamp, tracker.last_frame().T_cam_world().Inverse()}};
+    sweep.error_cm.push_back(100 * rrslam::EvaluateAte(gt, pose, alignment).error.rmse);
+  }
+  return sweep;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -190,7 +260,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> real_names;
   std::vector<fs::path> real_dirs, real_settings, real_vocabs, real_vocabs_text;
   std::vector<int> real_splits;
-  int starts = 5, kills = 20;
+  int starts = 5, kills = 20, reloc_stride = 10;
   std::string machine, out_prefix;
   app.add_option("--bin", bin, "Folder of the rrslam-* executables")->required();
   app.add_option("--runs", runs, "Folder for the runs' outputs")->required();
@@ -205,6 +275,10 @@ int main(int argc, char** argv) {
   app.add_option("--synth-vocab", synth_vocab, "Vocabulary of the synthetic room");
   app.add_option("--starts", starts, "Cold starts per vocabulary form")->capture_default_str();
   app.add_option("--kills", kills, "SIGKILLs around a --save-map")->capture_default_str();
+  app.add_option("--reloc-stride", reloc_stride,
+                 "Relocalization from single frames: every N-th frame (0 = none)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--machine", machine, "Machine description line");
   app.add_option("--out", out_prefix, "Result files prefix (writes .txt and .json)")->required();
   CLI11_PARSE(app, argc, argv);
@@ -387,6 +461,30 @@ int main(int argc, char** argv) {
     } catch (const std::exception& e) {
       report.Note(s, std::string("in-process round trip failed: ") + e.what());
       failed_run = true;
+    }
+
+    if (reloc_stride > 0) {
+      try {
+        const RelocalizationSweep sweep = SweepRelocalization(
+            dir, real_settings[q], real_vocabs[q], map, split, reloc_stride, gt, map_alignment);
+        const rrslam::TimingSummary t = rrslam::SummarizeTimings(sweep.attempt_ms);
+        const std::string every = "every " + std::to_string(reloc_stride) + "th frame";
+        report.Add(s, {"relocalized from one frame (" + every + "), frames mapped",
+                       static_cast<double>(sweep.relocalized[0]),
+                       "of " + std::to_string(sweep.attempts[0]), "-", true});
+        report.Add(s, {"  the same, later frames", static_cast<double>(sweep.relocalized[1]),
+                       "of " + std::to_string(sweep.attempts[1]), "-", true});
+        report.Add(s, {"relocalization attempt, median of " + std::to_string(t.count), t.median,
+                       "ms", "<= 15 ms", t.median <= 15});
+        report.Add(s, {"  p95", t.p95, "ms", "<= 40 ms", t.p95 <= 40});
+        report.Add(s, {"  slowest", t.max, "ms", "-", true});
+        report.Add(s, {"relocalized position error, map frame, median", Median(sweep.error_cm),
+                       "cm", "-", true});
+        report.Add(s, {"  largest", Max(sweep.error_cm), "cm", "-", true});
+      } catch (const std::exception& e) {
+        report.Note(s, std::string("relocalization sweep failed: ") + e.what());
+        failed_run = true;
+      }
     }
 
     // Restore mapping on the same sequence (nothing changed): few points
