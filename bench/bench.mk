@@ -2,6 +2,7 @@
 # bench-<name> and appends it to BENCH_TARGETS. Results are written to
 # bench/results/<name>-<date>.{txt,json} with the machine description.
 BENCH_TARGETS :=
+include bench/real_sequences.mk
 -include $(wildcard bench/*/bench.mk)
 
 .PHONY: bench

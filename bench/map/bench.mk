@@ -28,13 +28,13 @@
 #    intact every time (or the new one is complete).
 # Result: bench/results/map-<UTC date>[-BENCH_MAP_TAG].txt (and .json).
 BENCH_MAP_DIR ?= $(BUILD_DIR)/bench-data/map
+# Any other real sequence is measured by naming it (bench/real_sequences.mk
+# finds its folder and settings); its first half is mapped, unless
+# bench_map_split.NAME=<frames> is given.
 BENCH_MAP_REAL ?= 7scenes-kitchen fr1_xyz
-bench_map_dir.7scenes-kitchen := $(SHARED_DATA)/7scenes-kitchen
-bench_map_settings.7scenes-kitchen := $(SHARED_DATA)/settings/7scenes.yaml
-bench_map_split.7scenes-kitchen := 500
-bench_map_dir.fr1_xyz := $(SHARED_DATA)/tum/fr1_xyz
-bench_map_settings.fr1_xyz := $(SHARED_DATA)/settings/tum1.yaml
-bench_map_split.fr1_xyz := 300
+bench_map_dir = $(call bench_real_dir,$(1))
+bench_map_settings = $(call bench_real_settings,$(1))
+bench_map_split = $(or $(bench_map_split.$(1)),$(shell echo $$(( $(call bench_real_frames,$(1)) / 2 ))))
 # The real sequences' vocabularies are bench-track's (bench/track/bench.mk),
 # trained by the vocab pipeline with its defaults.
 bench_map_pipeline := $(BUILD_DIR)/bench-data/track/pipeline
@@ -43,8 +43,7 @@ BENCH_MAP_KILLS ?= 20
 BENCH_MAP_TAG ?=
 bench_map_tools := rrslam-synth rrslam-extract rrslam-cluster rrslam-vocab rrslam-track \
   rrslam-eval rrslam-mapstore bench_map
-bench_map_real_present := $(foreach n,$(BENCH_MAP_REAL),$(if \
-  $(wildcard $(bench_map_dir.$(n))/rgb.txt),$(n)))
+bench_map_real_present := $(call bench_real_present,$(BENCH_MAP_REAL))
 # The text form of a binary vocabulary.
 $(BENCH_MAP_DIR)/vocab/%/voc.txt: $(bench_map_pipeline)/%/voc.rrv $(BIN)/rrslam-vocab
 	@mkdir -p $(@D)
@@ -63,23 +62,24 @@ bench-map-data: $(BENCH_MAP_DIR)/synth/room/groundtruth.txt \
     $(BENCH_MAP_DIR)/synth/room-changed/groundtruth.txt
 	$(foreach n,$(bench_map_real_present),$(MAKE) --no-print-directory \
 	  $(bench_map_pipeline)/$(n)/voc.rrv SKIP_BUILD=1 DATASET=$(n) \
-	  DATA_ROOT=$(patsubst %/,%,$(dir $(bench_map_dir.$(n)))) \
-	  SETTINGS=$(bench_map_settings.$(n)) PIPELINE_ROOT=$(bench_map_pipeline) && \
+	  DATA_ROOT=$(patsubst %/,%,$(dir $(call bench_map_dir,$(n)))) \
+	  SETTINGS=$(call bench_map_settings,$(n)) PIPELINE_ROOT=$(bench_map_pipeline) && \
 	  $(MAKE) --no-print-directory $(BENCH_MAP_DIR)/vocab/$(n)/voc.txt &&) true
 	$(MAKE) --no-print-directory SKIP_BUILD=1 $(BENCH_MAP_DIR)/pipeline/room/voc.rrv \
 	  DATASET=room DATA_ROOT=$(BENCH_MAP_DIR)/synth PIPELINE_ROOT=$(BENCH_MAP_DIR)/pipeline \
 	  VOCAB_L=5 VOCAB_STRIDE=2
 
 bench-map: configure
+	@$(call bench_real_missing,$(BENCH_MAP_REAL),bench-map)
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target $(bench_map_tools)
 	$(MAKE) --no-print-directory bench-map-data
 	@mkdir -p bench/results
 	$(BUILD_DIR)/bench/bench_map --bin $(BIN) --runs $(BENCH_MAP_DIR)/runs \
-	  $(foreach n,$(bench_map_real_present),--real $(n) --real-dir $(bench_map_dir.$(n)) \
-	    --real-settings $(bench_map_settings.$(n)) \
+	  $(foreach n,$(bench_map_real_present),--real $(n) --real-dir $(call bench_map_dir,$(n)) \
+	    --real-settings $(call bench_map_settings,$(n)) \
 	    --real-vocab $(bench_map_pipeline)/$(n)/voc.rrv \
 	    --real-vocab-text $(BENCH_MAP_DIR)/vocab/$(n)/voc.txt \
-	    --real-split $(bench_map_split.$(n))) \
+	    --real-split $(call bench_map_split,$(n))) \
 	  --synth-original $(BENCH_MAP_DIR)/synth/room --synth-changed $(BENCH_MAP_DIR)/synth/room-changed \
 	  --synth-vocab $(BENCH_MAP_DIR)/pipeline/room/voc.rrv \
 	  --starts $(BENCH_MAP_STARTS) --kills $(BENCH_MAP_KILLS) --machine "$$(bench/machine.sh)" \

@@ -102,7 +102,7 @@ int main(int argc, char** argv) {
   app.add_option("--real", real_names, "Name of a real sequence (repeat per sequence)");
   app.add_option("--real-dir", real_dirs, "Its folder");
   app.add_option("--real-settings", real_settings, "Its settings YAML");
-  app.add_option("--real-goal", real_goals, "Its ATE RMSE goal, cm");
+  app.add_option("--real-goal", real_goals, "Its ATE RMSE goal, cm (0: none)");
   app.add_option("--real-vocabs", real_vocabs,
                  "Its vocabularies, space-separated; the first is the pipeline's default");
   app.add_option("--real-kidnapped", real_kidnapped,
@@ -156,9 +156,14 @@ int main(int argc, char** argv) {
   for (size_t q = 0; q < n_real; ++q) {
     const std::string& name = real_names[q];
     const fs::path& dir = real_dirs[q];
-    const double goal_cm = real_goals[q];
+    // A goal of 0: none set for this sequence (reported, not judged).
+    const double goal_cm = real_goals[q] > 0 ? real_goals[q] : 1e9;
     std::ostringstream goal_text;
-    goal_text << "<= " << goal_cm << " cm";
+    if (real_goals[q] > 0) {
+      goal_text << "<= " << goal_cm << " cm";
+    } else {
+      goal_text << "-";
+    }
     std::vector<fs::path> vocabs;
     {
       std::istringstream list(real_vocabs[q]);
