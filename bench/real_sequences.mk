@@ -33,3 +33,13 @@ bench_real_missing = $(foreach n,$(filter-out $(call bench_real_present,$(1)),$(
 # The kitchen's folder has a settings.yaml equal to this one; the benches have
 # always named this one, and their cached features record the path.
 bench_real_settings.7scenes-kitchen := $(SHARED_DATA)/settings/7scenes.yaml
+
+# `make bench-real-sequences BENCH_REAL="NAME ..."`: what the benches take for
+# each name, a line each: NAME, folder, settings, frames in rgb.txt ("-" where
+# there is none).
+BENCH_REAL ?=
+.PHONY: bench-real-sequences
+bench-real-sequences:
+	@$(foreach n,$(BENCH_REAL),echo "$(n) $(or $(call bench_real_dir,$(n)),-) $(or \
+	  $(call bench_real_settings,$(n)),-) $(if $(call bench_real_dir,$(n)),$(call \
+	  bench_real_frames,$(n)),-)";) true
