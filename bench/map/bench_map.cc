@@ -188,7 +188,7 @@ int PointsIn(const nlohmann::json& points, const nlohmann::json& box,
   return n;
 }
 
-// Relocalization from single frames on a saved map, in process.
+// Cold starts on a saved map, in process.
 struct RelocalizationSweep {
   int attempts[2] = {0, 0};        // [0]: frames the map was built from; [1]: later ones.
   int relocalized[2] = {0, 0};     // At the start frame.
@@ -255,7 +255,8 @@ RelocalizationSweep SweepRelocalization(const fs::path& dir, const fs::path& set
       const bool tracked = tracker.Track(frame_of(j, j - i));
       if (j == i) {
         ++sweep.attempts[part];
-        sweep.attempt_ms.push_back(tracker.relocalization_ms().front());
+        const std::vector<double>& attempts = tracker.relocalization_ms();
+        if (!attempts.empty()) sweep.attempt_ms.push_back(attempts.front());
         if (tracked) {
           ++sweep.relocalized[part];
           const rrslam::Trajectory pose = {
