@@ -9,16 +9,15 @@
 # its settings are
 #   bench_real_settings.NAME=<yaml> when given, else the folder's settings.yaml,
 #   else by the camera its name gives: fr1_... -> SHARED_DATA/settings/tum1.yaml
-#   (fr2 tum2, fr3 tum3; vocab_camera, pipelines/vocab.mk), 7scenes-... ->
-#   7scenes.yaml.
+#   (fr2 tum2, fr3 tum3), 7scenes-... -> 7scenes.yaml. TUM's names and
+#   cameras are pipelines/vocab.mk's (vocab_tum_name, vocab_camera).
 # The folder's own name must be NAME or TUM's full name: the vocabulary
 # pipeline that trains the sequence's vocabulary finds it by name. A name with
 # no folder is reported as skipped by each bench (bench_real_missing).
-bench_real_tum_name = rgbd_dataset_freiburg$(patsubst fr%,%,$(1))
 bench_real_dir = $(or $(bench_real_dir.$(1)),$(patsubst %/rgb.txt,%,$(firstword $(wildcard \
   $(SHARED_DATA)/$(1)/rgb.txt $(SHARED_DATA)/tum/$(1)/rgb.txt \
-  $(SHARED_DATA)/$(call bench_real_tum_name,$(1))/rgb.txt \
-  $(SHARED_DATA)/tum/$(call bench_real_tum_name,$(1))/rgb.txt))))
+  $(SHARED_DATA)/$(call vocab_tum_name,$(1))/rgb.txt \
+  $(SHARED_DATA)/tum/$(call vocab_tum_name,$(1))/rgb.txt))))
 bench_real_settings = $(or $(bench_real_settings.$(1)),$(wildcard \
   $(call bench_real_dir,$(1))/settings.yaml),$(if $(call vocab_camera,$(1)),$(SHARED_DATA)/settings/tum$(call \
   vocab_camera,$(1)).yaml),$(if $(filter 7scenes-%,$(1)),$(SHARED_DATA)/settings/7scenes.yaml))

@@ -44,9 +44,11 @@ SKIP_BUILD ?= 0
 
 vocab_tools := $(BIN)/rrslam-extract $(BIN)/rrslam-cluster $(BIN)/rrslam-vocab
 
+# TUM's folder name of dataset $(1): fr2_desk -> rgbd_dataset_freiburg2_desk.
+vocab_tum_name = rgbd_dataset_freiburg$(patsubst fr%,%,$(1))
 # Sequence folder of dataset $(1): DATA_ROOT/$(1), or the TUM folder name.
 vocab_seq = $(patsubst %/rgb.txt,%,$(firstword $(wildcard \
-  $(DATA_ROOT)/$(1)/rgb.txt $(DATA_ROOT)/rgbd_dataset_freiburg$(patsubst fr%,%,$(1))/rgb.txt)))
+  $(DATA_ROOT)/$(1)/rgb.txt $(DATA_ROOT)/$(call vocab_tum_name,$(1))/rgb.txt)))
 # TUM camera (1, 2 or 3) of dataset $(1), from fr<N>_... or ...freiburg<N>_...
 vocab_camera = $(firstword $(foreach c,1 2 3,$(if \
   $(filter fr$(c)_%,$(1))$(findstring freiburg$(c)_,$(1)),$(c))))
@@ -73,7 +75,7 @@ ifneq ($(filter vocab,$(MAKECMDGOALS)),)
   endif
   $(foreach d,$(DATASET),$(if $(call vocab_seq,$(d)),,$(error vocab: no sequence '$(d)' \
     under DATA_ROOT=$(DATA_ROOT) (looked for $(DATA_ROOT)/$(d)/rgb.txt and \
-    $(DATA_ROOT)/rgbd_dataset_freiburg$(patsubst fr%,%,$(d))/rgb.txt))))
+    $(DATA_ROOT)/$(call vocab_tum_name,$(d))/rgb.txt))))
   $(foreach d,$(DATASET),$(if $(call vocab_settings,$(d)),,$(error $(call vocab_no_settings,$(d)))))
 endif
 
