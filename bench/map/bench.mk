@@ -83,6 +83,7 @@ bench-map: configure
 	  --synth-original $(BENCH_MAP_DIR)/synth/room --synth-changed $(BENCH_MAP_DIR)/synth/room-changed \
 	  --synth-vocab $(BENCH_MAP_DIR)/pipeline/room/voc.rrv \
 	  --starts $(BENCH_MAP_STARTS) --kills $(BENCH_MAP_KILLS) --machine "$$(bench/machine.sh)" \
+	  --command '$(call bench_command,bench-map,BENCH_MAP_REAL BENCH_MAP_STARTS BENCH_MAP_KILLS BENCH_MAP_TAG BENCH_MAP_DIR)' \
 	  --out bench/results/map-$$(date -u +%Y-%m-%d)$(if $(BENCH_MAP_TAG),-$(BENCH_MAP_TAG))
 
 BENCH_TARGETS += bench-map

@@ -4,7 +4,8 @@
 //             [--real NAME --real-dir DIR --real-settings YAML --real-vocab FILE
 //              --real-vocab-text FILE --real-split N]...
 //             [--synth-original DIR --synth-changed DIR --synth-vocab FILE]
-//             [--starts N] [--kills N] [--reloc-stride N] --machine TEXT --out PREFIX
+//             [--starts N] [--kills N] [--reloc-stride N] [--command TEXT] --machine TEXT
+//             --out PREFIX
 // For each real sequence: the map of frames [0, N) is saved (--save-map); the
 // whole sequence is tracked continuously; then, N cold starts each, frames
 // [N, end) are tracked with --load-map --localization-only, with the binary
@@ -299,7 +300,7 @@ int main(int argc, char** argv) {
   std::vector<fs::path> real_dirs, real_settings, real_vocabs, real_vocabs_text;
   std::vector<int> real_splits;
   int starts = 5, kills = 20, reloc_stride = 10;
-  std::string machine, out_prefix;
+  std::string machine, out_prefix, command = "make bench-map";
   app.add_option("--bin", bin, "Folder of the rrslam-* executables")->required();
   app.add_option("--runs", runs, "Folder for the runs' outputs")->required();
   app.add_option("--real", real_names, "Name of a real sequence (repeat per sequence)");
@@ -318,6 +319,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   app.add_option("--machine", machine, "Machine description line");
+  app.add_option("--command", command, "The command that made this result, for its header")
+      ->capture_default_str();
   app.add_option("--out", out_prefix, "Result files prefix (writes .txt and .json)")->required();
   CLI11_PARSE(app, argc, argv);
   const size_t n_real = real_names.size();
@@ -672,7 +675,7 @@ int main(int argc, char** argv) {
   }
 
   std::ostringstream text;
-  text << "# bench-map: offline maps against the goals of issue 13 (command: make bench-map)\n";
+  text << "# bench-map: offline maps against the goals of issue 13 (command: " << command << ")\n";
   text << "# machine: " << machine << "\n";
   text << report.Text();
   text << "\nall goals met: " << (report.AllPass() ? "yes" : "no") << "\n";

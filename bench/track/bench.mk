@@ -158,6 +158,7 @@ bench-track: configure
 	  --track-args "$(BENCH_TRACK_ARGS)" \
 	  $(if $(filter 1,$(BENCH_TRACK_QUICK)),--quick) $(if $(BENCH_TRACK_TAG),--tag $(BENCH_TRACK_TAG)) \
 	  --machine "$$(bench/machine.sh)" \
+	  --command '$(call bench_command,bench-track,BENCH_TRACK_REAL BENCH_TRACK_ARGS BENCH_TRACK_QUICK BENCH_TRACK_TAG BENCH_TRACK_DIR)' \
 	  --out bench/results/track-$$(date -u +%Y-%m-%d)$(if $(BENCH_TRACK_TAG),-$(BENCH_TRACK_TAG))
 
 BENCH_TARGETS += bench-track

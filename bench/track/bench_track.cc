@@ -7,7 +7,7 @@
 //                --real-vocabs "FILE FILE ..." [--real-kidnapped "DIR N"]]...
 //               --paths "loop sweep rotation" [--shake] [--loops "NAME ..."]
 //               [--track-args "..."]
-//               [--quick] [--tag NAME] --machine TEXT --out PREFIX
+//               [--quick] [--tag NAME] [--command TEXT] --machine TEXT --out PREFIX
 // Real sequences: each is tracked with each of its vocabularies (the first
 // is the one `make vocab` trains; the others show the spread over training
 // choices) against the ATE goal; with the first one also twice (byte-identical
@@ -95,6 +95,7 @@ int main(int argc, char** argv) {
   std::vector<fs::path> real_dirs, real_settings;
   std::vector<double> real_goals;
   std::string paths = "loop sweep rotation", loops, machine, out_prefix, track_args;
+  std::string command = "make bench-track";
   std::string tag;
   bool shake = false, quick = false;
   app.add_option("--bin", bin, "Folder of the rrslam-* executables")->required();
@@ -115,6 +116,8 @@ int main(int argc, char** argv) {
   app.add_flag("--quick", quick, "Skip the repeated batch run and the realtime run");
   app.add_option("--tag", tag, "Name of this variant: its runs go to DATA/runs-TAG");
   app.add_option("--machine", machine, "Machine description line");
+  app.add_option("--command", command, "The command that made this result, for its header")
+      ->capture_default_str();
   app.add_option("--out", out_prefix, "Result files prefix (writes .txt and .json)")->required();
   CLI11_PARSE(app, argc, argv);
   const size_t n_real = real_names.size();
@@ -437,10 +440,8 @@ int main(int argc, char** argv) {
   }
 
   std::ostringstream text;
-  text << "# bench-track: rrslam-track against the goals of issues 11 and 12 (command: make "
-          "bench-track"
-       << (track_args.empty() ? "" : " BENCH_TRACK_ARGS='" + track_args + "'")
-       << (quick ? " BENCH_TRACK_QUICK=1" : "") << ")\n";
+  text << "# bench-track: rrslam-track against the goals of issues 11 and 12 (command: " << command
+       << ")\n";
   text << "# machine: " << machine << "\n";
   text << "# data: " << data.string() << " (bench/track/bench.mk)\n";
   if (!track_args.empty()) text << "# rrslam-track options added: " << track_args << "\n";
