@@ -10,7 +10,7 @@
 #   bench_real_settings.NAME=<yaml> when given, else the folder's settings.yaml,
 #   else by the camera its name gives: fr1_... -> SHARED_DATA/settings/tum1.yaml
 #   (fr2 tum2, fr3 tum3), 7scenes-... -> 7scenes.yaml. TUM's names and
-#   cameras are pipelines/vocab.mk's (vocab_tum_name, vocab_camera).
+#   cameras are pipelines/vocab.mk's (vocab_tum_name, vocab_settings_in).
 # The folder's own name must be NAME or TUM's full name: the vocabulary
 # pipeline that trains the sequence's vocabulary finds it by name. A name with
 # no folder is reported as skipped by each bench (bench_real_missing).
@@ -18,9 +18,8 @@ bench_real_dir = $(or $(bench_real_dir.$(1)),$(patsubst %/rgb.txt,%,$(firstword 
   $(SHARED_DATA)/$(1)/rgb.txt $(SHARED_DATA)/tum/$(1)/rgb.txt \
   $(SHARED_DATA)/$(call vocab_tum_name,$(1))/rgb.txt \
   $(SHARED_DATA)/tum/$(call vocab_tum_name,$(1))/rgb.txt))))
-bench_real_settings = $(or $(bench_real_settings.$(1)),$(wildcard \
-  $(call bench_real_dir,$(1))/settings.yaml),$(if $(call vocab_camera,$(1)),$(SHARED_DATA)/settings/tum$(call \
-  vocab_camera,$(1)).yaml),$(if $(filter 7scenes-%,$(1)),$(SHARED_DATA)/settings/7scenes.yaml))
+bench_real_settings = $(or $(bench_real_settings.$(1)),$(call vocab_settings_in,$(1),$(call \
+  bench_real_dir,$(1))),$(if $(filter 7scenes-%,$(1)),$(SHARED_DATA)/settings/7scenes.yaml))
 # Frames listed in the sequence's rgb.txt (comments and blank lines aside).
 bench_real_frames = $(shell grep -c -v -E '^[[:space:]]*(#|$$)' $(call bench_real_dir,$(1))/rgb.txt)
 # The names of $(1) (a list) with a folder, and a shell command that reports

@@ -52,7 +52,10 @@ vocab_seq = $(patsubst %/rgb.txt,%,$(firstword $(wildcard \
 # TUM camera (1, 2 or 3) of dataset $(1), from fr<N>_... or ...freiburg<N>_...
 vocab_camera = $(firstword $(foreach c,1 2 3,$(if \
   $(filter fr$(c)_%,$(1))$(findstring freiburg$(c)_,$(1)),$(c))))
-vocab_settings = $(or $(SETTINGS),$(wildcard $(call vocab_seq,$(1))/settings.yaml),$(if \
+vocab_settings = $(or $(SETTINGS),$(call vocab_settings_in,$(1),$(call vocab_seq,$(1))))
+# Settings of dataset $(1) in folder $(2): the folder's settings.yaml, else the
+# shared settings of the TUM camera its name gives (also bench/real_sequences.mk).
+vocab_settings_in = $(or $(wildcard $(2)/settings.yaml),$(if \
   $(call vocab_camera,$(1)),$(SHARED_DATA)/settings/tum$(call vocab_camera,$(1)).yaml))
 
 vocab_no_settings = vocab: no settings for '$(1)': give SETTINGS=<yaml> (no settings.yaml in \

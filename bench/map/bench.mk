@@ -32,8 +32,6 @@ BENCH_MAP_DIR ?= $(BUILD_DIR)/bench-data/map
 # finds its folder and settings); its first half is mapped, unless
 # bench_map_split.NAME=<frames> is given.
 BENCH_MAP_REAL ?= 7scenes-kitchen fr1_xyz
-bench_map_dir = $(call bench_real_dir,$(1))
-bench_map_settings = $(call bench_real_settings,$(1))
 bench_map_split = $(or $(bench_map_split.$(1)),$(shell echo $$(( $(call bench_real_frames,$(1)) / 2 ))))
 # The real sequences' vocabularies are bench-track's (bench/track/bench.mk),
 # trained by the vocab pipeline with its defaults.
@@ -62,8 +60,8 @@ bench-map-data: $(BENCH_MAP_DIR)/synth/room/groundtruth.txt \
     $(BENCH_MAP_DIR)/synth/room-changed/groundtruth.txt
 	$(foreach n,$(bench_map_real_present),$(MAKE) --no-print-directory \
 	  $(bench_map_pipeline)/$(n)/voc.rrv SKIP_BUILD=1 DATASET=$(n) \
-	  DATA_ROOT=$(patsubst %/,%,$(dir $(call bench_map_dir,$(n)))) \
-	  SETTINGS=$(call bench_map_settings,$(n)) PIPELINE_ROOT=$(bench_map_pipeline) && \
+	  DATA_ROOT=$(patsubst %/,%,$(dir $(call bench_real_dir,$(n)))) \
+	  SETTINGS=$(call bench_real_settings,$(n)) PIPELINE_ROOT=$(bench_map_pipeline) && \
 	  $(MAKE) --no-print-directory $(BENCH_MAP_DIR)/vocab/$(n)/voc.txt &&) true
 	$(MAKE) --no-print-directory SKIP_BUILD=1 $(BENCH_MAP_DIR)/pipeline/room/voc.rrv \
 	  DATASET=room DATA_ROOT=$(BENCH_MAP_DIR)/synth PIPELINE_ROOT=$(BENCH_MAP_DIR)/pipeline \
@@ -75,8 +73,8 @@ bench-map: configure
 	$(MAKE) --no-print-directory bench-map-data
 	@mkdir -p bench/results
 	$(BUILD_DIR)/bench/bench_map --bin $(BIN) --runs $(BENCH_MAP_DIR)/runs \
-	  $(foreach n,$(bench_map_real_present),--real $(n) --real-dir $(call bench_map_dir,$(n)) \
-	    --real-settings $(call bench_map_settings,$(n)) \
+	  $(foreach n,$(bench_map_real_present),--real $(n) --real-dir $(call bench_real_dir,$(n)) \
+	    --real-settings $(call bench_real_settings,$(n)) \
 	    --real-vocab $(bench_map_pipeline)/$(n)/voc.rrv \
 	    --real-vocab-text $(BENCH_MAP_DIR)/vocab/$(n)/voc.txt \
 	    --real-split $(call bench_map_split,$(n))) \

@@ -61,8 +61,6 @@ BENCH_TRACK_QUICK ?= 0
 # settings, so any other sequence is measured by naming it), with the ATE goal
 # (cm) of issue 11 where it set one (others: reported, not judged).
 BENCH_TRACK_REAL ?= 7scenes-kitchen fr1_xyz
-bench_track_dir = $(call bench_real_dir,$(1))
-bench_track_settings = $(call bench_real_settings,$(1))
 bench_track_goal.7scenes-kitchen := 4.3
 bench_track_goal.fr1_xyz := 1.0
 bench_track_goal = $(or $(bench_track_goal.$(1)),0)
@@ -84,7 +82,7 @@ bench_track_vocabs = $(bench_track_pipeline)/$(1)/voc.rrv $(foreach s,$(BENCH_TR
   $(call bench_track_other_pipeline,$(s))/$(1)/voc.rrv)
 bench_track_real_present := $(call bench_real_present,$(BENCH_TRACK_REAL))
 bench_track_real_args = SKIP_BUILD=1 DATASET=$(1) \
-  DATA_ROOT=$(patsubst %/,%,$(dir $(call bench_track_dir,$(1)))) SETTINGS=$(call bench_track_settings,$(1))
+  DATA_ROOT=$(patsubst %/,%,$(dir $(call bench_real_dir,$(1)))) SETTINGS=$(call bench_real_settings,$(1))
 
 # bench_track_synth(path): the two renderings of one path.
 define bench_track_synth
@@ -118,9 +116,9 @@ $(BENCH_TRACK_DIR)/synth/shake/groundtruth.txt: $(BIN)/rrslam-synth
 
 # The kidnapped sequence of real sequence $(1).
 define bench_track_kidnapped
-$(BENCH_TRACK_DIR)/kidnapped/$(1)/rgb.txt: bench/track/make_kidnapped.sh $(call bench_track_dir,$(1))/rgb.txt
+$(BENCH_TRACK_DIR)/kidnapped/$(1)/rgb.txt: bench/track/make_kidnapped.sh $(call bench_real_dir,$(1))/rgb.txt
 	@mkdir -p $$(dir $$(@D))
-	bench/track/make_kidnapped.sh $(call bench_track_dir,$(1)) $(call bench_track_kidnap,$(1)) $$(@D)
+	bench/track/make_kidnapped.sh $(call bench_real_dir,$(1)) $(call bench_track_kidnap,$(1)) $$(@D)
 endef
 $(foreach n,$(bench_track_real_present),$(eval $(call bench_track_kidnapped,$(n))))
 
@@ -150,8 +148,8 @@ bench-track: configure
 	$(MAKE) --no-print-directory bench-track-data
 	@mkdir -p bench/results
 	$(BUILD_DIR)/bench/bench_track --bin $(BIN) --data $(BENCH_TRACK_DIR) \
-	  $(foreach n,$(bench_track_real_present),--real $(n) --real-dir $(call bench_track_dir,$(n)) \
-	    --real-settings $(call bench_track_settings,$(n)) --real-goal $(call bench_track_goal,$(n)) \
+	  $(foreach n,$(bench_track_real_present),--real $(n) --real-dir $(call bench_real_dir,$(n)) \
+	    --real-settings $(call bench_real_settings,$(n)) --real-goal $(call bench_track_goal,$(n)) \
 	    --real-vocabs "$(call bench_track_vocabs,$(n))" \
 	    --real-kidnapped "$(BENCH_TRACK_DIR)/kidnapped/$(n) $(word 2,$(call bench_track_kidnap,$(n)))") \
 	  --paths "$(BENCH_TRACK_PATHS)" --shake --loops "$(BENCH_TRACK_LOOPS)" \
