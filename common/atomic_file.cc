@@ -4,12 +4,16 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <random>
+#include <regex>
 #include <sstream>
 
 #include "common/errors.h"
@@ -95,6 +99,165 @@ bool ExchangePaths(const fs::path& a, const fs::path& b) {
   return ::renameat2(AT_FDCWD, a.c_str(), AT_FDCWD, b.c_str(), RENAME_EXCHANGE) == 0;
 }
 
+bool IsRegularFile(const fs::path& path) {
+  std::error_code ec;
+  return fs::symlink_status(path, ec).type() == fs::file_type::regular;
+}
+
+bool IsFolder(const fs::path& path) {
+  std::error_code ec;
+  return fs::symlink_status(path, ec).type() == fs::file_type::directory;
+}
+
+// Entry names of `dir`, sorted (so the first foreign one is the same every run).
+std::vector<std::string> SortedNames(const fs::path& dir, const fs::path& shown) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    names.push_back(it->path().filename().string());
+  }
+  if (ec) throw CantCreateError(shown.string() + ": cannot list the folder: " + ec.message());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// At most `limit` bytes of a small file ("" when it cannot be read).
+std::string ReadHead(const fs::path& path, size_t limit) {
+  std::ifstream stream(path, std::ios::binary);
+  std::string text(limit, '\0');
+  stream.read(text.data(), static_cast<std::streamsize>(limit));
+  text.resize(static_cast<size_t>(std::max<std::streamsize>(stream.gcount(), 0)));
+  return text;
+}
+
+// The tool named by a marker file: its first line, without trailing blanks.
+std::string MarkerTool(const fs::path& path) {
+  if (!IsRegularFile(path)) return "";
+  std::string text = ReadHead(path, 256);
+  text = text.substr(0, text.find('\n'));
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+  return text;
+}
+
+// The "producer" of a JSON record ("" when it has none or is not JSON). Run
+// reports are kilobytes; a record over 64 MiB is not one.
+std::string RecordProducer(const fs::path& path) {
+  std::error_code ec;
+  const uintmax_t size = fs::file_size(path, ec);
+  if (ec || size > (uintmax_t{64} << 20)) return "";
+  const nlohmann::json record =
+      nlohmann::json::parse(ReadHead(path, static_cast<size_t>(size)), nullptr, false);
+  if (!record.is_object()) return "";
+  const auto producer = record.find("producer");
+  return producer != record.end() && producer->is_string() ? producer->get<std::string>() : "";
+}
+
+// The first entry of the existing folder `dir` that `owner` did not write,
+// as the error names it ("notes.txt", "rgb/x.png", ".rrslam-output of
+// rrslam-synth"); "" when the folder is the owner's (see OutputFolderOwner).
+// `shown` is the folder's name in messages.
+std::string ForeignEntry(const fs::path& dir, const fs::path& shown,
+                         const OutputFolderOwner& owner) {
+  const std::vector<std::string> names = SortedNames(dir, shown);
+  const auto owned_file = [&](const std::string& name) {
+    return std::find(owner.files.begin(), owner.files.end(), name) != owner.files.end();
+  };
+  bool marked = false;
+  for (const std::string& name : names) {
+    const fs::path path = dir / name;
+    if (name == kOutputFolderMarker) {
+      const std::string tool = MarkerTool(path);
+      if (!owner.tool.empty() && tool == owner.tool) {
+        marked = true;
+        continue;
+      }
+      return tool.empty() ? name : name + " of " + tool;
+    }
+    if (owned_file(name)) {
+      if (IsRegularFile(path)) continue;
+      return name;
+    }
+    const auto folder = std::find_if(owner.folders.begin(), owner.folders.end(),
+                                     [&](const auto& f) { return f.name == name; });
+    if (folder == owner.folders.end() || !IsFolder(path)) return name;
+    const std::regex pattern(folder->file_pattern);
+    for (const std::string& inner : SortedNames(path, shown / name)) {
+      if (!IsRegularFile(path / inner) || !std::regex_match(inner, pattern)) {
+        return name + "/" + inner;
+      }
+    }
+  }
+  // A folder without the marker: an older version's output only with its record.
+  if (names.empty() || marked || owner.record.empty()) return "";
+  if (std::find(names.begin(), names.end(), owner.record) == names.end()) {
+    return names.front() + ", without " + owner.record + " of " + owner.tool;
+  }
+  const std::string producer = RecordProducer(dir / owner.record);
+  if (producer.rfind(owner.tool + " ", 0) == 0 || producer == owner.tool) return "";
+  return owner.record + " of " + (producer.empty() ? "another tool" : producer);
+}
+
+// Whether `dir` is the current working folder or one of its ancestors.
+bool HoldsWorkingFolder(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path real = fs::canonical(dir, ec);
+  if (ec) return false;
+  const fs::path cwd = fs::current_path(ec);
+  if (ec) return false;
+  return std::mismatch(real.begin(), real.end(), cwd.begin(), cwd.end()).first == real.end();
+}
+
+// Throws CantCreateError unless the existing folder `final` may be replaced
+// by an output of `owner` (see AtomicOutput's constructor). No-op when
+// nothing is at `final`.
+void CheckFolderMayBeReplaced(const fs::path& final, const OutputFolderOwner& owner) {
+  std::error_code ec;
+  const fs::file_status status = fs::symlink_status(final, ec);
+  if (ec || status.type() == fs::file_type::not_found) return;
+  if (status.type() == fs::file_type::symlink) {
+    throw CantCreateError(final.string() +
+                          ": is a symbolic link; give a folder path (the output folder would "
+                          "replace the link)");
+  }
+  if (status.type() != fs::file_type::directory) {
+    throw CantCreateError(final.string() + ": exists and is not a folder");
+  }
+  if (HoldsWorkingFolder(final)) {
+    throw CantCreateError(final.string() +
+                          ": is the current folder or holds it; give another folder (the output "
+                          "folder is replaced by a new one)");
+  }
+  const std::string foreign = ForeignEntry(final, final, owner);
+  if (foreign.empty()) return;
+  if (owner.tool.empty()) {
+    throw CantCreateError(final.string() + ": is not empty (" + foreign +
+                          "); give an empty or new folder");
+  }
+  throw CantCreateError(final.string() + ": holds files " + owner.tool + " did not write (" +
+                        foreign + "); give an empty or new folder, or one an earlier " +
+                        owner.tool + " run wrote");
+}
+
+// Removes `old`, the folder an output replaced, now under a temporary name;
+// keeps it there if an entry not the owner's got in after the last check.
+void RemoveReplacedFolder(const fs::path& old, const fs::path& final,
+                          const OutputFolderOwner& owner) {
+  std::string foreign;
+  try {
+    foreign = ForeignEntry(old, final, owner);
+  } catch (const CantCreateError& e) {
+    foreign = e.what();
+  }
+  std::error_code ec;
+  if (foreign.empty()) {
+    fs::remove_all(old, ec);
+  } else {
+    // Written plainly: this file is also built without spdlog (the fuzzers).
+    std::fprintf(stderr, "warning: %s: the folder it replaced got %s meanwhile; kept as %s\n",
+                 final.c_str(), foreign.c_str(), old.c_str());
+  }
+}
+
 }  // namespace
 
 namespace atomic_output_testing {
@@ -102,10 +265,18 @@ void SetCommitHook(CommitHook hook) { g_commit_hook.store(hook); }
 void SetForceRenameFallback(bool force) { g_force_rename_fallback.store(force); }
 }  // namespace atomic_output_testing
 
-AtomicOutput::AtomicOutput(fs::path final_path, Kind kind)
-    : final_path_(std::move(final_path)), kind_(kind) {
+AtomicOutput::AtomicOutput(fs::path final_path, Kind kind, OutputFolderOwner owner)
+    : final_path_(std::move(final_path)), kind_(kind), owner_(std::move(owner)) {
   if (final_path_.empty()) throw CantCreateError("empty output path");
   if (!final_path_.has_filename()) final_path_ = final_path_.parent_path();
+  // "x/." and "x/.." name a folder by a name the temporary could not sit
+  // beside (it would land inside x).
+  if (kind_ == Kind::kDirectory &&
+      (final_path_.filename() == "." || final_path_.filename() == "..")) {
+    std::error_code ec;
+    const fs::path resolved = fs::weakly_canonical(final_path_, ec);
+    if (!ec) final_path_ = resolved;
+  }
   const fs::path parent = ParentOf(final_path_);
   std::error_code ec;
   if (!fs::is_directory(parent, ec)) {
@@ -128,11 +299,18 @@ AtomicOutput::AtomicOutput(fs::path final_path, Kind kind)
                           ": is not a regular file (a device, FIFO or socket); outputs are "
                           "written as regular files and replaced atomically");
   }
-  if (kind_ == Kind::kDirectory && fs::exists(final_path_, ec) &&
-      !fs::is_directory(final_path_, ec)) {
-    throw CantCreateError(final_path_.string() + ": exists and is not a folder");
-  }
+  if (kind_ == Kind::kDirectory) CheckFolderMayBeReplaced(final_path_, owner_);
   temp_path_ = CreateUniqueTemporary(final_path_, kind_);
+  if (kind_ == Kind::kDirectory && !owner_.tool.empty()) {
+    const fs::path marker = temp_path_ / kOutputFolderMarker;
+    std::ofstream stream(marker, std::ios::binary);
+    stream << owner_.tool << "\n";
+    stream.flush();
+    if (!stream) {
+      fs::remove_all(temp_path_, ec);  // No destructor runs for a throwing constructor.
+      throw CantCreateError(marker.string() + ": cannot write");
+    }
+  }
 }
 
 AtomicOutput::~AtomicOutput() {
@@ -155,7 +333,10 @@ void AtomicOutput::Commit() {
     }
   } else {
     FsyncTree(temp_path_);
-    if (!fs::exists(final_path_, ec)) {
+    const bool replacing = fs::symlink_status(final_path_, ec).type() != fs::file_type::not_found;
+    // The folder may have changed since the constructor's check.
+    if (replacing) CheckFolderMayBeReplaced(final_path_, owner_);
+    if (!replacing) {
       if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
         throw CantCreateError(final_path_.string() + ": cannot rename from " + temp_path_.string() +
                               ": " + ErrnoText());
@@ -165,7 +346,7 @@ void AtomicOutput::Commit() {
       // temporary name, which this object owns.
       committed_ = true;
       CommitStep("exchanged");
-      fs::remove_all(temp_path_, ec);
+      RemoveReplacedFolder(temp_path_, final_path_, owner_);
     } else if (errno == EINVAL || errno == ENOSYS || errno == ENOTSUP) {
       // rename(2) cannot replace a non-empty folder: move the old one aside.
       const fs::path old_path = UniqueSibling(final_path_, ".old.tmp");
@@ -180,7 +361,7 @@ void AtomicOutput::Commit() {
         throw CantCreateError(final_path_.string() + ": cannot rename from " + temp_path_.string() +
                               ": " + why);
       }
-      fs::remove_all(old_path, ec);
+      RemoveReplacedFolder(old_path, final_path_, owner_);
     } else {
       throw CantCreateError(final_path_.string() + ": cannot exchange with " + temp_path_.string() +
                             ": " + ErrnoText());

@@ -12,7 +12,15 @@
 // (SIGKILL) while writing leaves its `<name>.XXXXXX.tmp` behind, never a
 // damaged final name; such leftovers may be deleted by hand.
 //
-// An existing output folder is replaced in one step with
+// An existing output folder is replaced only when it is empty or holds
+// nothing but an earlier output of the same tool (OutputFolderOwner below):
+// a tool never deletes what it did not write (issue 36: `--out .` or
+// `--out ~/runs` must not take the user's notes and sub-folders with it).
+// Every new output folder carries a marker file, `.rrslam-output`, naming the
+// tool. The rule is checked when the AtomicOutput is made (so a run fails
+// before its work) and again in Commit() just before the replacement.
+//
+// Such a folder is replaced in one step with
 // renameat2(RENAME_EXCHANGE) (Linux >= 3.15 on ext4, xfs, btrfs, tmpfs and
 // most local file systems): the final name always holds a complete folder,
 // the old or the new one; the old folder, now under the temporary name, is
@@ -26,9 +34,47 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 #include <string_view>
+#include <vector>
 
 namespace rrslam {
+
+// Name of the marker file in every output folder of an owned AtomicOutput
+// (Kind::kDirectory): a regular file whose text is the tool's name and a
+// newline ("rrslam-track\n").
+inline constexpr std::string_view kOutputFolderMarker = ".rrslam-output";
+
+// The tool that writes an output folder and the names it writes there: what
+// may be replaced. An existing folder at the final path is the tool's own, and
+// may be replaced, when it is empty, or when every entry in it is one of:
+//   - the marker naming `tool` (a marker naming another tool is foreign);
+//   - a regular file named in `files`;
+//   - a folder named in `folders` holding only regular files whose names
+//     match its `file_pattern`;
+// and, in a folder without the marker (written by a version before it), the
+// file `record` is among them and is JSON whose "producer" names the tool
+// ("rrslam-track 0.3"): CameraTrajectory.txt and KeyFrameTrajectory.txt
+// alone are what ORB-SLAM2 writes, not an rrslam-track output.
+// Symbolic links are never the tool's (they are not followed). Anything else,
+// e.g. the user's notes.txt, makes the folder foreign: it is not replaced.
+struct OutputFolderOwner {
+  // The tool, as named in the marker and in its record's "producer":
+  // "rrslam-track". Empty: no marker is written and only an empty folder is
+  // replaced.
+  std::string tool;
+  // Regular files the tool writes at the top of its folder ("run.json").
+  std::vector<std::string> files;
+  // Sub-folders the tool writes, each of regular files only.
+  struct Folder {
+    std::string name;          // "rgb"
+    std::string file_pattern;  // ECMAScript regex for a whole file name: R"(\d+\.\d{6}\.png)"
+  };
+  std::vector<Folder> folders;
+  // One of `files`, a JSON record with "producer"; empty: a folder without the
+  // marker is the tool's by its names alone.
+  std::string record;
+};
 
 // Reserves a unique temporary path beside `final_path` (created empty: a file
 // for Kind::kFile, a folder for Kind::kDirectory). The caller writes the
@@ -37,16 +83,30 @@ namespace rrslam {
 // calls Commit(). If Commit() is never called, the destructor removes the
 // temporary file or folder.
 //
+// For Kind::kDirectory, `owner` says which existing folder may be replaced
+// (see OutputFolderOwner); with a tool named, the marker is written into the
+// temporary folder at once, so the committed folder always carries it. A
+// final path "x/." or "x/.." is resolved to the folder it names.
+//
 // Throws CantCreateError when the parent folder does not exist (or is a
 // file) or is not writable, when the final path names an existing folder
 // (for a file) or an existing file (for a folder), or when it names a
 // device, FIFO or socket (`--out /dev/null`): such a path would be replaced
-// by a regular file, so it is refused.
+// by a regular file, so it is refused. For a folder also when the final path
+// is a symbolic link, is the current working folder or holds it (replacing it
+// would leave the process and the user's shell in a deleted folder), or is an
+// existing folder that is not the owner's; the message is one line naming the
+// folder and the first foreign entry (by name; "rgb/x.png" inside a
+// sub-folder):
+//   runs: holds files rrslam-track did not write (notes.txt); give an empty
+//   or new folder, or one an earlier rrslam-track run wrote
+// Nothing is then created or changed.
 class AtomicOutput {
  public:
   enum class Kind { kFile, kDirectory };
 
-  explicit AtomicOutput(std::filesystem::path final_path, Kind kind = Kind::kFile);
+  explicit AtomicOutput(std::filesystem::path final_path, Kind kind = Kind::kFile,
+                        OutputFolderOwner owner = {});
   ~AtomicOutput();
   AtomicOutput(const AtomicOutput&) = delete;
   AtomicOutput& operator=(const AtomicOutput&) = delete;
@@ -56,14 +116,20 @@ class AtomicOutput {
 
   // Fsyncs the temporary file (or every file of the temporary folder), renames
   // it to the final path and fsyncs the parent folder. An existing final folder
-  // is replaced as a whole (exchanged, see above). Throws CantCreateError on
-  // failure; the final path then keeps its previous content.
+  // is checked again (it may have changed since the constructor) and, if still
+  // the owner's, replaced as a whole (exchanged, see above); if not, Commit()
+  // throws the constructor's CantCreateError and leaves it as it is. Should a
+  // foreign entry appear in the moment between that check and the exchange,
+  // the old folder is kept under its `.tmp` name (a warning names it), not
+  // removed. Throws CantCreateError on failure; the final path then keeps its
+  // previous content.
   void Commit();
 
  private:
   std::filesystem::path final_path_;
   std::filesystem::path temp_path_;
   Kind kind_;
+  OutputFolderOwner owner_;
   bool committed_ = false;
 };
 

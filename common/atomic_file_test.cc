@@ -5,6 +5,7 @@
 
 #include <csignal>
 #include <fstream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,46 @@
 namespace rrslam {
 namespace {
 namespace fs = std::filesystem;
+
+// A tool writing result.txt and stale.txt, and images/<n>.png, with run.json
+// as its record.
+const OutputFolderOwner kOwner = {.tool = "rrslam-test",
+                                  .files = {"result.txt", "stale.txt", "run.json"},
+                                  .folders = {{"images", R"(\d+\.png)"}},
+                                  .record = "run.json"};
+
+// Everything under `dir`: relative path -> content, "<folder>" or "<link>".
+std::map<std::string, std::string> Snapshot(const fs::path& dir) {
+  std::map<std::string, std::string> entries;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    const std::string name = fs::relative(entry.path(), dir).string();
+    if (entry.is_symlink()) {
+      entries[name] = "<link>";
+    } else if (entry.is_directory()) {
+      entries[name] = "<folder>";
+    } else {
+      entries[name] = ReadFileToString(entry.path());
+    }
+  }
+  return entries;
+}
+
+// The CantCreateError message of making a folder output at `path`, or "no error".
+std::string FolderOutputError(const fs::path& path, const OutputFolderOwner& owner = kOwner) {
+  try {
+    AtomicOutput out(path, AtomicOutput::Kind::kDirectory, owner);
+  } catch (const CantCreateError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+// Writes a new output of kOwner at `path` (result.txt = `content`).
+void WriteOwnOutput(const fs::path& path, const std::string& content) {
+  AtomicOutput out(path, AtomicOutput::Kind::kDirectory, kOwner);
+  testing::WriteTextFile(out.temp_path() / "result.txt", content);
+  out.Commit();
+}
 
 TEST(AtomicFile, WritesAndLeavesNoTemporary) {
   testing::TempDir dir;
@@ -53,15 +94,15 @@ TEST(AtomicFile, MissingOrReadOnlyFolderIsCantCreate) {
 
 TEST(AtomicFile, DirectoryOutputReplacesWholeFolder) {
   testing::TempDir dir;
-  fs::create_directory(dir / "out");
+  WriteOwnOutput(dir / "out", "old");
   testing::WriteTextFile(dir / "out" / "stale.txt", "stale");
   {
-    AtomicOutput out(dir / "out", AtomicOutput::Kind::kDirectory);
+    AtomicOutput out(dir / "out", AtomicOutput::Kind::kDirectory, kOwner);
     testing::WriteTextFile(out.temp_path() / "result.txt", "fresh");
     EXPECT_TRUE(fs::exists(dir / "out" / "stale.txt"));  // Untouched until commit.
     out.Commit();
   }
-  EXPECT_TRUE(fs::exists(dir / "out" / "result.txt"));
+  EXPECT_EQ(ReadFileToString(dir / "out" / "result.txt"), "fresh");
   EXPECT_FALSE(fs::exists(dir / "out" / "stale.txt"));
   EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
 }
@@ -105,7 +146,7 @@ void KillDuringFolderReplacement(const fs::path& dir, const char* step, bool fal
         atomic_output_testing::SetCommitHook([](std::string_view at) {
           if (at == kill_step) std::raise(SIGKILL);
         });
-        AtomicOutput out(dir / "out", AtomicOutput::Kind::kDirectory);
+        AtomicOutput out(dir / "out", AtomicOutput::Kind::kDirectory, kOwner);
         testing::WriteTextFile(out.temp_path() / "result.txt", "fresh");
         out.Commit();
         std::exit(0);  // Not reached when the hook fires.
@@ -115,7 +156,7 @@ void KillDuringFolderReplacement(const fs::path& dir, const char* step, bool fal
 
 TEST(AtomicFileDeathTest, KillAfterExchangeLeavesTheNewFolder) {
   testing::TempDir dir;
-  fs::create_directory(dir / "out");
+  WriteOwnOutput(dir / "out", "old");
   testing::WriteTextFile(dir / "out" / "stale.txt", "stale");
   KillDuringFolderReplacement(dir.path(), "exchanged", /*fallback=*/false);
   // One step replaced the folder: the final name holds the complete new one,
@@ -129,7 +170,7 @@ TEST(AtomicFileDeathTest, KillAfterExchangeLeavesTheNewFolder) {
 
 TEST(AtomicFileDeathTest, KillInTheRenameFallbackKeepsTheOldFolder) {
   testing::TempDir dir;
-  fs::create_directory(dir / "out");
+  WriteOwnOutput(dir / "out", "old");
   testing::WriteTextFile(dir / "out" / "stale.txt", "stale");
   KillDuringFolderReplacement(dir.path(), "moved-aside", /*fallback=*/true);
   // The documented weakness of the fallback: between its two renames the
@@ -143,17 +184,214 @@ TEST(AtomicFileDeathTest, KillInTheRenameFallbackKeepsTheOldFolder) {
 
 TEST(AtomicFile, RenameFallbackReplacesTheFolder) {
   testing::TempDir dir;
-  fs::create_directory(dir / "out");
+  WriteOwnOutput(dir / "out", "old");
   testing::WriteTextFile(dir / "out" / "stale.txt", "stale");
   atomic_output_testing::SetForceRenameFallback(true);
   {
-    AtomicOutput out(dir / "out", AtomicOutput::Kind::kDirectory);
+    AtomicOutput out(dir / "out", AtomicOutput::Kind::kDirectory, kOwner);
     testing::WriteTextFile(out.temp_path() / "result.txt", "fresh");
     out.Commit();
   }
   atomic_output_testing::SetForceRenameFallback(false);
   EXPECT_EQ(ReadFileToString(dir / "out" / "result.txt"), "fresh");
   EXPECT_FALSE(fs::exists(dir / "out" / "stale.txt"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
+}
+
+// Issue 36: an existing folder is replaced only when it is empty or an
+// earlier output of the same tool; anything else is refused, byte for byte
+// unchanged, when the output is made and again at Commit().
+TEST(AtomicFile, EmptyFolderIsReplaced) {
+  testing::TempDir dir;
+  fs::create_directory(dir / "out");
+  fs::create_directory(dir / "plain");
+  WriteOwnOutput(dir / "out", "fresh");
+  EXPECT_EQ(ReadFileToString(dir / "out" / "result.txt"), "fresh");
+  {  // Without an owner: an empty folder only, and no marker.
+    AtomicOutput out(dir / "plain", AtomicOutput::Kind::kDirectory);
+    testing::WriteTextFile(out.temp_path() / "a.txt", "a");
+    out.Commit();
+  }
+  EXPECT_EQ(Snapshot(dir / "plain"), (std::map<std::string, std::string>{{"a.txt", "a"}}));
+  EXPECT_NE(FolderOutputError(dir / "plain", {}).find("plain: is not empty (a.txt)"),
+            std::string::npos);
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
+}
+
+TEST(AtomicFile, FolderWithTheMarkerOfTheSameToolIsReplaced) {
+  testing::TempDir dir;
+  {
+    AtomicOutput out(dir / "out", AtomicOutput::Kind::kDirectory, kOwner);
+    // The marker is there from the start: a committed folder always has it.
+    EXPECT_EQ(ReadFileToString(out.temp_path() / ".rrslam-output"), "rrslam-test\n");
+    testing::WriteTextFile(out.temp_path() / "result.txt", "first");
+    fs::create_directory(out.temp_path() / "images");
+    testing::WriteTextFile(out.temp_path() / "images" / "12.png", "png");
+    out.Commit();
+  }
+  EXPECT_EQ(ReadFileToString(dir / "out" / ".rrslam-output"), "rrslam-test\n");
+  WriteOwnOutput(dir / "out", "second");
+  EXPECT_EQ(Snapshot(dir / "out"),
+            (std::map<std::string, std::string>{{".rrslam-output", "rrslam-test\n"},
+                                                {"result.txt", "second"}}));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
+}
+
+TEST(AtomicFile, LegacyFolderWithExactlyTheToolsFilesIsReplaced) {
+  testing::TempDir dir;
+  // Written by a version before the marker: the tool's files, its record
+  // naming it as the producer.
+  fs::create_directories(dir / "out" / "images");
+  testing::WriteTextFile(dir / "out" / "result.txt", "old");
+  testing::WriteTextFile(dir / "out" / "stale.txt", "old");
+  testing::WriteTextFile(dir / "out" / "run.json", R"({"producer": "rrslam-test 0.1"})");
+  testing::WriteTextFile(dir / "out" / "images" / "0.png", "png");
+  WriteOwnOutput(dir / "out", "new");
+  EXPECT_EQ(Snapshot(dir / "out"),
+            (std::map<std::string, std::string>{{".rrslam-output", "rrslam-test\n"},
+                                                {"result.txt", "new"}}));
+
+  // The tool's names without its record (ORB-SLAM2 writes
+  // CameraTrajectory.txt and KeyFrameTrajectory.txt too), or a record of
+  // another producer, are not its output.
+  fs::create_directory(dir / "orb");
+  testing::WriteTextFile(dir / "orb" / "result.txt", "orb");
+  EXPECT_NE(FolderOutputError(dir / "orb").find("(result.txt, without run.json of rrslam-test)"),
+            std::string::npos);
+  testing::WriteTextFile(dir / "orb" / "run.json", R"({"producer": "rrslam-testing 2"})");
+  EXPECT_NE(FolderOutputError(dir / "orb").find("(run.json of rrslam-testing 2)"),
+            std::string::npos);
+  testing::WriteTextFile(dir / "orb" / "run.json", "not json");
+  EXPECT_NE(FolderOutputError(dir / "orb").find("(run.json of another tool)"), std::string::npos);
+  EXPECT_EQ(ReadFileToString(dir / "orb" / "result.txt"), "orb");
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
+}
+
+TEST(AtomicFile, FolderWithForeignEntriesIsRefusedAndKept) {
+  struct Case {
+    const char* what;
+    void (*make)(const fs::path& out);
+    std::string entry;  // As the message names it.
+  };
+  const std::vector<Case> cases = {
+      {"a foreign file",
+       [](const fs::path& out) { testing::WriteTextFile(out / "notes.txt", "my notes"); },
+       "notes.txt"},
+      {"a foreign sub-folder",
+       [](const fs::path& out) {
+         fs::create_directory(out / "older");
+         testing::WriteTextFile(out / "older" / "result.txt", "keep");
+       },
+       "older"},
+      {"the marker of another tool",
+       [](const fs::path& out) {
+         testing::WriteTextFile(out / ".rrslam-output", "rrslam-other\n");
+       },
+       ".rrslam-output of rrslam-other"},
+      {"a foreign file in the tool's sub-folder",
+       [](const fs::path& out) { testing::WriteTextFile(out / "images" / "cat.jpg", "cat"); },
+       "images/cat.jpg"},
+      {"a folder under the name of the tool's file",
+       [](const fs::path& out) { fs::create_directory(out / "stale.txt"); }, "stale.txt"},
+      {"a symbolic link under the name of the tool's file",
+       [](const fs::path& out) { fs::create_symlink("/etc/hostname", out / "stale.txt"); },
+       "stale.txt"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    testing::TempDir dir;
+    const fs::path out = dir / "runs";
+    {  // An earlier output of the tool, then the foreign entry.
+      AtomicOutput first(out, AtomicOutput::Kind::kDirectory, kOwner);
+      testing::WriteTextFile(first.temp_path() / "result.txt", "earlier");
+      fs::create_directory(first.temp_path() / "images");
+      testing::WriteTextFile(first.temp_path() / "images" / "1.png", "png");
+      first.Commit();
+    }
+    c.make(out);
+    const auto before = Snapshot(out);
+    const std::string message = FolderOutputError(out);
+    EXPECT_EQ(message, out.string() + ": holds files rrslam-test did not write (" + c.entry +
+                           "); give an empty or new folder, or one an earlier rrslam-test run "
+                           "wrote");
+    EXPECT_EQ(message.find('\n'), std::string::npos);
+    EXPECT_EQ(Snapshot(out), before);
+    EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
+  }
+}
+
+TEST(AtomicFile, CommitChecksTheFolderAgain) {
+  for (const bool fallback : {false, true}) {
+    SCOPED_TRACE(fallback ? "rename fallback" : "exchange");
+    atomic_output_testing::SetForceRenameFallback(fallback);
+    testing::TempDir dir;
+    fs::create_directory(dir / "empty");
+    WriteOwnOutput(dir / "own", "earlier");
+    for (const char* name : {"empty", "own"}) {
+      AtomicOutput out(dir / name, AtomicOutput::Kind::kDirectory, kOwner);
+      testing::WriteTextFile(out.temp_path() / "result.txt", "new");
+      // Someone puts a file there while the tool works.
+      testing::WriteTextFile(dir / name / "notes.txt", "my notes");
+      const auto before = Snapshot(dir / name);
+      try {
+        out.Commit();
+        ADD_FAILURE() << name << ": committed over notes.txt";
+      } catch (const CantCreateError& e) {
+        EXPECT_NE(std::string(e.what()).find((dir / name).string() +
+                                             ": holds files rrslam-test did not write (notes.txt)"),
+                  std::string::npos)
+            << e.what();
+      }
+      EXPECT_EQ(Snapshot(dir / name), before) << name;
+    }
+    atomic_output_testing::SetForceRenameFallback(false);
+    EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
+  }
+}
+
+// A file that gets into the old folder after Commit()'s check (here: at the
+// "exchanged" step) is not deleted: the old folder stays under its .tmp name.
+TEST(AtomicFile, FileAddedAfterTheCheckIsKept) {
+  testing::TempDir dir;
+  WriteOwnOutput(dir / "out", "earlier");
+  static fs::path old_folder;
+  {
+    AtomicOutput out(dir / "out", AtomicOutput::Kind::kDirectory, kOwner);
+    old_folder = out.temp_path();  // Holds the old folder after the exchange.
+    testing::WriteTextFile(out.temp_path() / "result.txt", "new");
+    atomic_output_testing::SetCommitHook([](std::string_view step) {
+      if (step == "exchanged") testing::WriteTextFile(old_folder / "notes.txt", "my notes");
+    });
+    out.Commit();
+    atomic_output_testing::SetCommitHook(nullptr);
+  }
+  EXPECT_EQ(ReadFileToString(dir / "out" / "result.txt"), "new");
+  EXPECT_EQ(ReadFileToString(old_folder / "notes.txt"), "my notes");
+}
+
+TEST(AtomicFile, SymbolicLinkOrWorkingFolderIsRefused) {
+  testing::TempDir dir;
+  WriteOwnOutput(dir / "own", "earlier");
+  fs::create_directory_symlink(dir / "own", dir / "link");
+  EXPECT_NE(FolderOutputError(dir / "link").find("link: is a symbolic link"), std::string::npos);
+  EXPECT_TRUE(fs::is_symlink(dir / "link"));
+  EXPECT_EQ(ReadFileToString(dir / "own" / "result.txt"), "earlier");
+
+  // The working folder, or a folder holding it, even when it is the tool's own
+  // or empty: the run would leave the user's shell in a deleted folder.
+  fs::create_directories(dir / "empty");
+  const fs::path cwd = fs::current_path();
+  for (const char* inside : {"own", "empty"}) {
+    fs::current_path(dir / inside);
+    for (const fs::path& path : {fs::path("."), fs::path("./"), fs::path("../") / inside,
+                                 dir / inside, fs::path(".."), dir.path()}) {
+      EXPECT_NE(FolderOutputError(path).find(": is the current folder or holds it"),
+                std::string::npos)
+          << path;
+    }
+    fs::current_path(cwd);
+  }
+  EXPECT_EQ(ReadFileToString(dir / "own" / "result.txt"), "earlier");
   EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
 }
 

@@ -23,9 +23,29 @@ double NiceStep(double raw) {
   return nice * magnitude;
 }
 
+std::vector<double> TickValues(double lo, double hi, double step) {
+  if (!std::isfinite(lo) || !std::isfinite(hi) || !std::isfinite(step) || !(step > 0) || hi < lo) {
+    return {};
+  }
+  const double first = std::ceil(lo / step), last = std::floor(hi / step);
+  // Below 1e15 (< 2^53) the multiples k * step of consecutive integers k are
+  // distinct: k is exact, and so is the count.
+  constexpr double kMaxMultiple = 1e15;
+  if (!(std::fabs(first) <= kMaxMultiple && std::fabs(last) <= kMaxMultiple) || last < first ||
+      last - first + 1 > static_cast<double>(kMaxTicks)) {
+    return {};
+  }
+  std::vector<double> values;
+  for (double k = first; k <= last; ++k) values.push_back(k * step);
+  return values;
+}
+
 std::string TickLabel(double value, double step) {
-  const int decimals = std::max(0, -static_cast<int>(std::floor(std::log10(step) + 1e-9)));
-  if (std::fabs(value) < 1e-6 * step) value = 0;  // No "-0.0".
+  // At most 17 decimals (all a double has); none for a step that is not a
+  // positive finite number.
+  const double digits = -std::floor(std::log10(step) + 1e-9);
+  const int decimals = std::isfinite(digits) ? static_cast<int>(std::clamp(digits, 0.0, 17.0)) : 0;
+  if (std::isfinite(step) && std::fabs(value) < 1e-6 * step) value = 0;  // No "-0.0".
   char buffer[48];
   std::snprintf(buffer, sizeof(buffer), "%.*f", decimals, value);
   return buffer;
@@ -89,13 +109,24 @@ ChartLayout MakeLayout(cv::Size size, bool footer) {
 
 Axes2d FitAxes(Eigen::Vector2d lo, Eigen::Vector2d hi, const cv::Rect& area, AxisScale scale,
                double padding, double min_span) {
-  if (!(lo.x() <= hi.x()) || !(lo.y() <= hi.y())) lo = hi = Eigen::Vector2d::Zero();
+  if (!(lo.x() <= hi.x()) || !(lo.y() <= hi.y()) || !lo.allFinite() || !hi.allFinite()) {
+    lo = hi = Eigen::Vector2d::Zero();
+  }
   const Eigen::Vector2d span = (hi - lo).cwiseMax(min_span);
   Axes2d axes;
-  axes.centre_u = 0.5 * (lo.x() + hi.x());
-  axes.centre_v = 0.5 * (lo.y() + hi.y());
-  axes.pixels_per_u = area.width / (span.x() * padding);
-  axes.pixels_per_v = area.height / (span.y() * padding);
+  if (span.allFinite() && (lo + hi).allFinite()) {
+    axes.centre_u = 0.5 * (lo.x() + hi.x());
+    axes.centre_v = 0.5 * (lo.y() + hi.y());
+    axes.pixels_per_u = area.width / (span.x() * padding);
+    axes.pixels_per_v = area.height / (span.y() * padding);
+  } else {
+    // hi - lo or lo + hi overflowed past DBL_MAX: halves first.
+    const Eigen::Vector2d half_span = (0.5 * hi - 0.5 * lo).cwiseMax(0.5 * min_span);
+    axes.centre_u = 0.5 * lo.x() + 0.5 * hi.x();
+    axes.centre_v = 0.5 * lo.y() + 0.5 * hi.y();
+    axes.pixels_per_u = area.width / 2.0 / padding / half_span.x();
+    axes.pixels_per_v = area.height / 2.0 / padding / half_span.y();
+  }
   if (scale == AxisScale::kEqual) {
     axes.pixels_per_u = axes.pixels_per_v = std::min(axes.pixels_per_u, axes.pixels_per_v);
   }
@@ -121,7 +152,7 @@ void DrawGrid(cv::Mat& image, const ChartLayout& layout, const Axes2d& axes) {
   const double step_u = NiceStep(110.0 * layout.ui / axes.pixels_per_u);
   const double step_v = NiceStep(110.0 * layout.ui / axes.pixels_per_v);
   const double u_max = axes.u_max(area), v_max = axes.v_max(area);
-  for (double u = std::ceil(axes.u_min(area) / step_u) * step_u; u <= u_max; u += step_u) {
+  for (const double u : TickValues(axes.u_min(area), u_max, step_u)) {
     const double x = axes(Eigen::Vector2d(u, 0)).x;
     cv::line(image, SubPixel({x, double(area.y)}), SubPixel({x, double(area.br().y)}), kGrid, 1,
              cv::LINE_AA, kShift);
@@ -130,7 +161,7 @@ void DrawGrid(cv::Mat& image, const ChartLayout& layout, const Axes2d& axes) {
     PutText(image, TickLabel(u, step_u), {x, area.br().y + tick + 0.6 * layout.text_height},
             layout.font, 1, 0.5, 0);
   }
-  for (double v = std::ceil(axes.v_min(area) / step_v) * step_v; v <= v_max; v += step_v) {
+  for (const double v : TickValues(axes.v_min(area), v_max, step_v)) {
     const double y = axes(Eigen::Vector2d(0, v)).y;
     cv::line(image, SubPixel({double(area.x), y}), SubPixel({double(area.br().x), y}), kGrid, 1,
              cv::LINE_AA, kShift);

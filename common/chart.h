@@ -11,6 +11,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <opencv2/core/mat.hpp>
 #include <string>
 #include <vector>
@@ -32,6 +33,17 @@ cv::Point SubPixel(const cv::Point2d& p);
 
 // Tick step of 1, 2 or 5 times a power of ten, near `raw`.
 double NiceStep(double raw);
+
+// Most ticks TickValues gives on one axis (a chart has about 8000 / 110).
+inline constexpr size_t kMaxTicks = 1000;
+
+// The multiples of `step` in [lo, hi], ascending: where an axis' grid lines
+// and ticks go. Empty where they cannot be drawn: lo, hi or step not finite,
+// step <= 0, more than kMaxTicks of them, or a step below the precision of
+// the values (they lie more than 1e15 steps from 0, so that consecutive
+// multiples are no longer distinct doubles). Every tick loop goes through
+// this: a loop `for (v = lo; v <= hi; v += step)` never ends there.
+std::vector<double> TickValues(double lo, double hi, double step);
 
 // `value` with as many decimals as `step` needs ("0", not "-0.0").
 std::string TickLabel(double value, double step);
@@ -83,6 +95,8 @@ struct Axes2d {
 // Fits data bounds [lo, hi] into `area` with `padding` (1.08 = 8% free),
 // centred: with kEqual one scale for both axes (maps, metres), with kEach a
 // scale per axis (time series). A span below `min_span` counts as min_span.
+// Bounds that are not finite count as [0, 0]; finite bounds never overflow
+// (a span of up to 2 * DBL_MAX is fitted).
 enum class AxisScale { kEqual, kEach };
 Axes2d FitAxes(Eigen::Vector2d lo, Eigen::Vector2d hi, const cv::Rect& area,
                AxisScale scale = AxisScale::kEqual, double padding = 1.08, double min_span = 1e-3);
@@ -93,7 +107,8 @@ Axes2d FitAxes(Eigen::Vector2d lo, Eigen::Vector2d hi, const cv::Rect& area,
 bool CheckChartSize(int width_px, int height_px, const std::string& what, std::string* why);
 
 // Grid lines, ticks and tick labels at round values about 110 px apart,
-// clipped to the layout's area.
+// clipped to the layout's area. An axis whose ticks TickValues cannot give
+// (a range not finite, a step below the precision of the values) gets none.
 void DrawGrid(cv::Mat& image, const ChartLayout& layout, const Axes2d& axes);
 
 // Frame of the area, axis labels under and left of it, and the title above.

@@ -87,6 +87,7 @@ RgbdSequence RgbdSequence::Open(const fs::path& dir, const SequenceOptions& opti
   if (!fs::is_directory(dir, ec)) throw NoInputError(dir.string() + ": no such sequence folder");
   RgbdSequence seq;
   seq.dir_ = dir;
+  seq.max_image_size_ = options.max_image_size;
   fs::path associations = options.associations;
   if (!associations.empty() && associations.is_relative() && !fs::exists(associations, ec)) {
     associations = dir / associations;
@@ -143,12 +144,16 @@ RgbdSequence RgbdSequence::Open(const fs::path& dir, const SequenceOptions& opti
   return seq;
 }
 
-cv::Mat LoadColorImage(const fs::path& path) { return ReadImage(path, ImageReadMode::kColor); }
+cv::Mat LoadColorImage(const fs::path& path, const ImageSizeLimit& limit) {
+  return ReadImage(path, ImageReadMode::kColor, limit);
+}
 
-cv::Mat LoadGrayImage(const fs::path& path) { return ReadImage(path, ImageReadMode::kGray); }
+cv::Mat LoadGrayImage(const fs::path& path, const ImageSizeLimit& limit) {
+  return ReadImage(path, ImageReadMode::kGray, limit);
+}
 
-cv::Mat LoadDepthImage(const fs::path& path) {
-  const cv::Mat depth = ReadImage(path, ImageReadMode::kUnchanged);
+cv::Mat LoadDepthImage(const fs::path& path, const ImageSizeLimit& limit) {
+  const cv::Mat depth = ReadImage(path, ImageReadMode::kUnchanged, limit);
   if (depth.type() != CV_16UC1) {
     throw DataError(path.string() + ": depth must be 16-bit single-channel, got " +
                     std::to_string(8 * depth.elemSize1()) + "-bit " +
@@ -165,9 +170,15 @@ void CheckSameSize(const cv::Mat& rgb, const cv::Mat& depth, const fs::path& dep
   }
 }
 
-cv::Mat RgbdSequence::LoadColor(size_t i) const { return LoadColorImage(frame(i).rgb_path); }
-cv::Mat RgbdSequence::LoadGray(size_t i) const { return LoadGrayImage(frame(i).rgb_path); }
-cv::Mat RgbdSequence::LoadDepthRaw(size_t i) const { return LoadDepthImage(frame(i).depth_path); }
+cv::Mat RgbdSequence::LoadColor(size_t i) const {
+  return LoadColorImage(frame(i).rgb_path, max_image_size_);
+}
+cv::Mat RgbdSequence::LoadGray(size_t i) const {
+  return LoadGrayImage(frame(i).rgb_path, max_image_size_);
+}
+cv::Mat RgbdSequence::LoadDepthRaw(size_t i) const {
+  return LoadDepthImage(frame(i).depth_path, max_image_size_);
+}
 
 cv::Mat RgbdSequence::LoadDepthMetres(size_t i, double depth_map_factor) const {
   cv::Mat metres;

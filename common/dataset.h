@@ -18,6 +18,7 @@
 #include <string_view>
 #include <vector>
 
+#include "common/image_io.h"
 #include "common/trajectory.h"
 
 namespace rrslam {
@@ -28,6 +29,10 @@ struct SequenceOptions {
   std::filesystem::path associations;
   // Largest |t_rgb - t_depth| in seconds for a pair (strictly smaller), as associate.py.
   double max_time_difference = 0.02;
+  // Largest image loaded (common/image_io.h), checked from each file's header
+  // before it is decoded: the settings' (or the map's) Camera.width x
+  // Camera.height; not given: kMaxImageSide a side.
+  ImageSizeLimit max_image_size;
 };
 
 struct RgbdFrameRef {
@@ -79,7 +84,8 @@ class RgbdSequence {
   const std::optional<Trajectory>& groundtruth() const { return groundtruth_; }
 
   // Colour image as 8-bit BGR (CV_8UC3). Throws NoInputError when the file
-  // cannot be opened, DataError when it is not a readable 8-bit PNG or JPEG.
+  // cannot be opened, DataError when it is not a readable 8-bit PNG or JPEG or
+  // is larger than SequenceOptions::max_image_size (every Load* below too).
   cv::Mat LoadColor(size_t i) const;
   // Grayscale 8-bit image (CV_8UC1): a JPEG's luma channel, or a PNG converted
   // as cv::COLOR_BGR2GRAY (common/image_io.h).
@@ -93,13 +99,15 @@ class RgbdSequence {
   std::filesystem::path dir_;
   std::vector<RgbdFrameRef> frames_;
   std::optional<Trajectory> groundtruth_;
+  ImageSizeLimit max_image_size_;
 };
 
 // Loads an 8-bit image as grayscale (CV_8UC1) / BGR (CV_8UC3), or a 16-bit depth
-// image (CV_16UC1), with the same errors as RgbdSequence.
-cv::Mat LoadGrayImage(const std::filesystem::path& path);
-cv::Mat LoadColorImage(const std::filesystem::path& path);
-cv::Mat LoadDepthImage(const std::filesystem::path& path);
+// image (CV_16UC1), with the same errors as RgbdSequence; an image larger than
+// `limit` is refused from its header (DataError naming both sizes).
+cv::Mat LoadGrayImage(const std::filesystem::path& path, const ImageSizeLimit& limit = {});
+cv::Mat LoadColorImage(const std::filesystem::path& path, const ImageSizeLimit& limit = {});
+cv::Mat LoadDepthImage(const std::filesystem::path& path, const ImageSizeLimit& limit = {});
 
 // Checks that rgb and depth images have the same size; throws DataError naming
 // `depth_path` otherwise.

@@ -172,6 +172,37 @@ TEST_F(BadSequence, EightBitDepthAndSizeMismatch) {
   EXPECT_THROW(CheckSameSize(rgb, depth, "d.png"), DataError);
 }
 
+// Images larger than the settings' Camera.width x Camera.height are refused
+// (from their headers) by every Load*: they would be tracked with the wrong
+// calibration. The settings' size itself, or no size, reads.
+TEST_F(BadSequence, ImageLargerThanTheGivenSize) {
+  SequenceOptions options;
+  options.max_image_size = {64, 40, "Camera.width x Camera.height of s.yaml"};
+  const RgbdSequence s = RgbdSequence::Open(seq(), options);
+  const std::string expected =
+      ": image is 64x48, larger than 64x40 (Camera.width x "
+      "Camera.height of s.yaml)";
+  for (int load = 0; load < 4; ++load) {
+    try {
+      if (load == 0) s.LoadGray(0);
+      if (load == 1) s.LoadColor(0);
+      if (load == 2) s.LoadDepthRaw(0);
+      if (load == 3) s.LoadDepthMetres(0, 5000);
+      ADD_FAILURE() << "load " << load;
+    } catch (const DataError& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find((load < 2 ? "rgb/1.png" : "depth/1.png") + expected),
+                std::string::npos)
+          << message;
+    }
+  }
+  EXPECT_THROW(LoadGrayImage(seq() / "rgb" / "1.png", options.max_image_size), DataError);
+  options.max_image_size = {64, 48, "s.yaml"};
+  EXPECT_EQ(RgbdSequence::Open(seq(), options).LoadGray(0).size(), cv::Size(64, 48));
+  options.max_image_size = {};
+  EXPECT_EQ(RgbdSequence::Open(seq(), options).LoadDepthRaw(0).size(), cv::Size(64, 48));
+}
+
 TEST_F(BadSequence, UnreadableImage) {
   testing::WriteTextFile(seq() / "rgb" / "1.png", "not a png");
   const RgbdSequence s = RgbdSequence::Open(seq());

@@ -10,7 +10,8 @@ const char* ExitCodeHelp() {
          "  66  missing or unreadable input\n"
          "  70  internal error\n"
          "  73  cannot create or write an output\n"
-         "  75  algorithm failure on this input (e.g. tracking lost everywhere)\n";
+         "  75  algorithm failure on this input (e.g. tracking lost everywhere), or a\n"
+         "      temporary lack of resources (a worker thread could not be started)\n";
 }
 
 }  // namespace rrslam

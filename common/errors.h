@@ -67,4 +67,12 @@ class AlgorithmError : public Error {
   explicit AlgorithmError(const std::string& message) : Error(ExitCode::kTempFail, message) {}
 };
 
+// The machine lacks a resource for now: a thread cannot be started (the
+// system's thread or address-space limit). Retrying with fewer threads or
+// higher limits may succeed (exit 75, a temporary failure).
+class ResourceError : public Error {
+ public:
+  explicit ResourceError(const std::string& message) : Error(ExitCode::kTempFail, message) {}
+};
+
 }  // namespace rrslam

@@ -6,6 +6,8 @@
 #include <atomic>
 #include <system_error>
 
+#include "common/json_text.h"
+
 namespace rrslam {
 
 H5::H5File CreateH5File(const std::filesystem::path& path) {
@@ -40,7 +42,7 @@ void WriteFormatAttributes(H5::H5File& file, const FormatSpec& spec, const std::
   WriteH5ScalarAttribute(file, "format_major", spec.major, H5::PredType::STD_U16LE);
   WriteH5ScalarAttribute(file, "format_minor", spec.minor, H5::PredType::STD_U16LE);
   WriteH5StringAttribute(file, "producer", producer);
-  WriteH5StringAttribute(file, "options", options.dump());
+  WriteH5StringAttribute(file, "options", DumpJson(options));
 }
 
 namespace {

@@ -17,6 +17,24 @@
 namespace rrslam {
 namespace {
 
+// Throws DataError when a header's size exceeds `limit` (before decoding).
+void CheckImageSize(uint64_t width, uint64_t height, const ImageSizeLimit& limit,
+                    const std::string& name) {
+  const int max_width = limit.MaxWidth(), max_height = limit.MaxHeight();
+  if (width <= static_cast<uint64_t>(max_width) && height <= static_cast<uint64_t>(max_height)) {
+    return;
+  }
+  std::string why;
+  if (max_width == kMaxImageSide && max_height == kMaxImageSide) {
+    why = " (the largest image read: " + std::to_string(kMaxImageSide) + " pixels a side)";
+  } else if (!limit.source.empty()) {
+    why = " (" + limit.source + ")";
+  }
+  throw DataError(name + ": image is " + std::to_string(width) + "x" + std::to_string(height) +
+                  ", larger than " + std::to_string(max_width) + "x" + std::to_string(max_height) +
+                  why);
+}
+
 // ---- PNG decoding -----------------------------------------------------------
 
 struct PngReadSource {
@@ -50,6 +68,7 @@ struct PngDecodeJob {
   PngErrorState errors;
   png_structp png = nullptr;
   png_infop info = nullptr;
+  ImageSizeLimit limit;
   cv::Mat image;
   std::vector<png_bytep> rows;
   bool bad_size = false;
@@ -65,8 +84,9 @@ bool RunPngDecode(PngDecodeJob* job) {
   const png_uint_32 height = png_get_image_height(png, info);
   const int bit_depth = png_get_bit_depth(png, info);
   const int color_type = png_get_color_type(png, info);
-  if (width == 0 || height == 0 || width > 65535 || height > 65535) {
-    job->bad_size = true;
+  if (width == 0 || height == 0 || width > static_cast<png_uint_32>(job->limit.MaxWidth()) ||
+      height > static_cast<png_uint_32>(job->limit.MaxHeight())) {
+    job->bad_size = true;  // Refused from the header, before anything is allocated.
     return false;
   }
   // Normalize to 8-bit grey/BGR/BGRA or 16-bit grey/BGR(A); no gamma handling,
@@ -92,9 +112,11 @@ bool RunPngDecode(PngDecodeJob* job) {
   return true;
 }
 
-cv::Mat DecodePng(std::span<const uint8_t> bytes, const std::string& name) {
+cv::Mat DecodePng(std::span<const uint8_t> bytes, const std::string& name,
+                  const ImageSizeLimit& limit) {
   PngDecodeJob job;
   job.source = {bytes, 0};
+  job.limit = limit;
   job.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &job.errors, PngErrorCallback,
                                    PngWarningCallback);
   job.info = job.png != nullptr ? png_create_info_struct(job.png) : nullptr;
@@ -103,8 +125,16 @@ cv::Mat DecodePng(std::span<const uint8_t> bytes, const std::string& name) {
     throw std::bad_alloc();
   }
   const bool ok = RunPngDecode(&job);
+  uint64_t width = 0, height = 0;
+  if (job.bad_size) {
+    width = png_get_image_width(job.png, job.info);
+    height = png_get_image_height(job.png, job.info);
+  }
   png_destroy_read_struct(&job.png, &job.info, nullptr);
-  if (job.bad_size) throw DataError(name + ": unsupported PNG size");
+  if (job.bad_size) {
+    if (width == 0 || height == 0) throw DataError(name + ": unsupported PNG size 0");
+    CheckImageSize(width, height, limit, name);
+  }
   if (!ok) throw DataError(name + ": cannot decode PNG: " + job.errors.message);
   return job.image;
 }
@@ -128,7 +158,9 @@ void JpegSilence(j_common_ptr, int) {}
 struct JpegDecodeJob {
   jpeg_decompress_struct cinfo;
   JpegErrorManager errors;
+  ImageSizeLimit limit;
   cv::Mat image;
+  bool bad_size = false;
 };
 
 bool RunJpegDecode(JpegDecodeJob* job, std::span<const uint8_t> bytes, bool gray) {
@@ -136,6 +168,11 @@ bool RunJpegDecode(JpegDecodeJob* job, std::span<const uint8_t> bytes, bool gray
   jpeg_decompress_struct* cinfo = &job->cinfo;
   jpeg_mem_src(cinfo, bytes.data(), static_cast<unsigned long>(bytes.size()));
   jpeg_read_header(cinfo, TRUE);
+  if (cinfo->image_width > static_cast<JDIMENSION>(job->limit.MaxWidth()) ||
+      cinfo->image_height > static_cast<JDIMENSION>(job->limit.MaxHeight())) {
+    job->bad_size = true;  // Refused from the header, before anything is allocated.
+    return false;
+  }
   // Grey output of a colour JPEG is its luma channel, as cv::IMREAD_GRAYSCALE.
   cinfo->out_color_space = gray ? JCS_GRAYSCALE : JCS_EXT_BGR;
   jpeg_start_decompress(cinfo);
@@ -149,14 +186,18 @@ bool RunJpegDecode(JpegDecodeJob* job, std::span<const uint8_t> bytes, bool gray
   return true;
 }
 
-cv::Mat DecodeJpeg(std::span<const uint8_t> bytes, bool gray, const std::string& name) {
+cv::Mat DecodeJpeg(std::span<const uint8_t> bytes, bool gray, const std::string& name,
+                   const ImageSizeLimit& limit) {
   JpegDecodeJob job;
+  job.limit = limit;
   job.cinfo.err = jpeg_std_error(&job.errors.base);
   job.errors.base.error_exit = JpegErrorExit;
   job.errors.base.emit_message = JpegSilence;
   jpeg_create_decompress(&job.cinfo);
   const bool ok = RunJpegDecode(&job, bytes, gray);
+  const uint64_t width = job.cinfo.image_width, height = job.cinfo.image_height;
   jpeg_destroy_decompress(&job.cinfo);
+  if (job.bad_size) CheckImageSize(width, height, limit, name);
   if (!ok) throw DataError(name + ": cannot decode JPEG: " + job.errors.message);
   return job.image;
 }
@@ -198,16 +239,18 @@ void PngFlushCallback(png_structp) {}
 
 }  // namespace
 
-cv::Mat DecodeImage(std::span<const uint8_t> bytes, ImageReadMode mode, const std::string& name) {
-  if (IsPng(bytes)) return ConvertForMode(DecodePng(bytes, name), mode, name);
-  if (IsJpeg(bytes)) return DecodeJpeg(bytes, mode == ImageReadMode::kGray, name);
+cv::Mat DecodeImage(std::span<const uint8_t> bytes, ImageReadMode mode, const std::string& name,
+                    const ImageSizeLimit& limit) {
+  if (IsPng(bytes)) return ConvertForMode(DecodePng(bytes, name, limit), mode, name);
+  if (IsJpeg(bytes)) return DecodeJpeg(bytes, mode == ImageReadMode::kGray, name, limit);
   throw DataError(name + ": not a PNG or JPEG image");
 }
 
-cv::Mat ReadImage(const std::filesystem::path& path, ImageReadMode mode) {
+cv::Mat ReadImage(const std::filesystem::path& path, ImageReadMode mode,
+                  const ImageSizeLimit& limit) {
   const std::string bytes = ReadFileToString(path);
   return DecodeImage({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, mode,
-                     path.string());
+                     path.string(), limit);
 }
 
 namespace {

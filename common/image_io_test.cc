@@ -130,6 +130,94 @@ TEST(ImageIo, StoresTextChunksWithValidChecksums) {
   EXPECT_EQ(texts[1], std::string("Comment\0{\"a\": 1}", 16));
 }
 
+void StoreBigEndian(unsigned char* p, uint32_t value) {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<unsigned char>(value >> (24 - 8 * i));
+}
+
+// A small PNG whose IHDR (the first chunk) declares width x height, with a
+// valid CRC: a decompression bomb of a few hundred bytes.
+std::vector<uint8_t> PngDeclaring(uint32_t width, uint32_t height) {
+  std::vector<uint8_t> png = EncodePng(RandomImage(CV_8UC3, 8));
+  EXPECT_EQ(std::string(png.begin() + 12, png.begin() + 16), "IHDR");
+  StoreBigEndian(&png[16], width);
+  StoreBigEndian(&png[20], height);
+  StoreBigEndian(&png[29], BitwiseCrc32(&png[12], 4 + 13));
+  return png;
+}
+
+// A small JPEG whose frame header (SOF0) declares width x height.
+std::vector<uint8_t> JpegDeclaring(uint16_t width, uint16_t height) {
+  std::vector<uint8_t> jpeg;
+  cv::imencode(".jpg", RandomImage(CV_8UC3, 9), jpeg);
+  for (size_t i = 2; i + 9 < jpeg.size(); ++i) {
+    if (jpeg[i] == 0xff && jpeg[i + 1] == 0xc0) {  // SOF0: length, precision, height, width.
+      jpeg[i + 5] = static_cast<uint8_t>(height >> 8);
+      jpeg[i + 6] = static_cast<uint8_t>(height);
+      jpeg[i + 7] = static_cast<uint8_t>(width >> 8);
+      jpeg[i + 8] = static_cast<uint8_t>(width);
+      return jpeg;
+    }
+  }
+  ADD_FAILURE() << "no SOF0 marker";
+  return jpeg;
+}
+
+std::string DecodeError(std::span<const uint8_t> bytes, const ImageSizeLimit& limit = {}) {
+  try {
+    DecodeImage(bytes, ImageReadMode::kUnchanged, "bomb.png", limit);
+  } catch (const DataError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+// A header declaring 65535 x 65535 pixels (34 GB decoded for a 16-bit RGBA
+// PNG, from a file of a few hundred bytes) is refused from the header, naming
+// the file and both sizes, before anything is allocated for the pixels.
+TEST(ImageIo, RefusesImagesLargerThanTheCapFromTheHeader) {
+  const std::vector<uint8_t> png = PngDeclaring(65535, 65535);
+  ASSERT_LT(png.size(), 20000u);
+  const bool measured = testing::ResetPeakResident();
+  const long before = testing::PeakResidentKb();
+  EXPECT_EQ(DecodeError(png),
+            "bomb.png: image is 65535x65535, larger than 16384x16384 (the largest image read: "
+            "16384 pixels a side)");
+  EXPECT_EQ(DecodeError(PngDeclaring(kMaxImageSide + 1, 10)),
+            "bomb.png: image is 16385x10, larger than 16384x16384 (the largest image read: "
+            "16384 pixels a side)");
+  EXPECT_EQ(DecodeError(JpegDeclaring(65000, 64000)),
+            "bomb.png: image is 65000x64000, larger than 16384x16384 (the largest image read: "
+            "16384 pixels a side)");
+  // A limit above the cap does not lift it.
+  EXPECT_NE(DecodeError(png, {100000, 100000, "s.yaml"}).find("larger than 16384x16384"),
+            std::string::npos);
+  if (measured) {
+    EXPECT_LT(testing::PeakResidentKb() - before, 64 * 1024) << "kB";
+  }
+  // As a file, through the tool's path: DataError (exit 65).
+  testing::TempDir dir;
+  WriteFileAtomically(dir / "bomb.png", std::string(png.begin(), png.end()));
+  EXPECT_THROW(ReadImage(dir / "bomb.png", ImageReadMode::kGray), DataError);
+}
+
+// With the settings' Camera.width x Camera.height, a larger image is refused
+// (it would be used with the wrong calibration); that size or smaller reads.
+TEST(ImageIo, RefusesImagesLargerThanTheGivenSize) {
+  const cv::Mat image = RandomImage(CV_8UC3, 10);  // 53 x 37.
+  const std::vector<uint8_t> png = EncodePng(image);
+  std::vector<uint8_t> jpeg;
+  cv::imencode(".jpg", image, jpeg);
+  const ImageSizeLimit narrow{52, 37, "Camera.width x Camera.height of s.yaml"};
+  EXPECT_EQ(DecodeError(png, narrow),
+            "bomb.png: image is 53x37, larger than 52x37 (Camera.width x Camera.height of s.yaml)");
+  EXPECT_EQ(DecodeError(jpeg, {53, 36, ""}), "bomb.png: image is 53x37, larger than 53x36");
+  for (const ImageSizeLimit& fits :
+       {ImageSizeLimit{53, 37, "s"}, ImageSizeLimit{640, 480, "s"}, ImageSizeLimit{}}) {
+    EXPECT_TRUE(Equal(DecodeImage(png, ImageReadMode::kUnchanged, "t.png", fits), image));
+    EXPECT_EQ(DecodeImage(jpeg, ImageReadMode::kColor, "t.jpg", fits).size(), image.size());
+  }
+}
+
 TEST(ImageIo, WritePngIsAtomic) {
   testing::TempDir dir;
   WritePng(dir / "a.png", RandomImage(CV_8UC1, 6));

@@ -37,6 +37,45 @@ bool ReadInt(const cv::FileStorage& fs, const std::string& key, const std::strin
   return true;
 }
 
+// The DepthNoise keys, or the older DepthDisparitySigma (see DepthNoise).
+void ReadDepthNoise(const cv::FileStorage& fs, const std::string& path, DepthNoise* noise) {
+  const cv::FileNode model = fs["DepthNoise.model"];
+  double legacy = 0;
+  const bool has_legacy = ReadNumber(fs, "DepthDisparitySigma", path, &legacy);
+  const bool has_k2 = ReadNumber(fs, "DepthNoise.k2", path, &noise->k2);
+  const bool has_sampling = ReadNumber(fs, "DepthNoise.sampling", path, &noise->sampling);
+  const bool has_model = !model.empty() && !model.isNone();
+  if (has_legacy && (has_model || has_k2 || has_sampling)) {
+    throw DataError(path + ": gives both DepthDisparitySigma and DepthNoise.*; give one");
+  }
+  if (has_legacy) {
+    *noise = {DepthNoise::Model::kQuadratic, 0.0, legacy};
+    // A sigma of 0 was the older files' way to say ORB-SLAM2's weighting.
+    if (legacy == 0) *noise = DepthNoise{};
+    return;
+  }
+  if (!has_model) {
+    if (has_k2 || has_sampling) {
+      throw DataError(path +
+                      ": DepthNoise.k2 / DepthNoise.sampling need DepthNoise.model: "
+                      "quadratic");
+    }
+    return;
+  }
+  const std::string name = model.isString() ? static_cast<std::string>(model) : "";
+  if (name == "orbslam2") {
+    if (has_k2 || has_sampling) {
+      throw DataError(path + ": DepthNoise.model = orbslam2 takes no DepthNoise.k2 / .sampling");
+    }
+    noise->model = DepthNoise::Model::kOrbSlam2;
+  } else if (name == "quadratic") {
+    noise->model = DepthNoise::Model::kQuadratic;
+  } else {
+    throw DataError(path + ": DepthNoise.model = " + (name.empty() ? "(not a name)" : name) +
+                    "; must be orbslam2 or quadratic");
+  }
+}
+
 // A settings file's text; NoInputError when it is missing or a folder.
 std::string ReadSettingsText(const std::filesystem::path& path) {
   std::error_code ec;
@@ -83,8 +122,18 @@ bool Settings::Check(std::string* why) const {
   if (!positive(fps)) return fail("Camera.fps = " + Fmt("%g", fps) + "; must be > 0");
   if (!positive(bf)) return fail("Camera.bf = " + Fmt("%g", bf) + "; must be > 0");
   if (!positive(th_depth)) return fail("ThDepth = " + Fmt("%g", th_depth) + "; must be > 0");
-  if (!std::isfinite(depth_disparity_sigma) || depth_disparity_sigma < 0) {
-    return fail("DepthDisparitySigma = " + Fmt("%g", depth_disparity_sigma) + "; must be >= 0");
+  if (depth_noise.model == DepthNoise::Model::kQuadratic) {
+    for (const auto& [key, value] : {std::pair{"DepthNoise.k2", depth_noise.k2},
+                                     {"DepthNoise.sampling", depth_noise.sampling}}) {
+      if (!std::isfinite(value) || value < 0) {
+        return fail(std::string(key) + " = " + Fmt("%g", value) + "; must be >= 0");
+      }
+    }
+    if (!(depth_noise.DisparitySigma(bf) > 0)) {
+      return fail(
+          "DepthNoise.model = quadratic with DepthNoise.k2 = 0 and DepthNoise.sampling = 0 "
+          "trusts depth without limit; give one of them > 0");
+    }
   }
   if (!positive(depth_map_factor)) {
     return fail("DepthMapFactor = " + Fmt("%g", depth_map_factor) + "; must be > 0");
@@ -109,6 +158,10 @@ bool Settings::Check(std::string* why) const {
                 "; must be in [1, iniThFAST = " + std::to_string(orb.ini_th_fast) + "]");
   }
   return true;
+}
+
+double DepthNoise::DisparitySigma(double bf) const {
+  return model == Model::kQuadratic ? std::hypot(bf * k2, sampling) : 0.0;
 }
 
 Settings ReadSettings(const std::filesystem::path& path) {
@@ -142,7 +195,7 @@ Settings ParseSettings(const std::string& text, const std::string& name) {
     ReadNumber(fs, "DepthMapFactor", name, &s.depth_map_factor);
     // ORB-SLAM2 treats a zero factor as 1 (depth already in metres).
     if (s.depth_map_factor == 0) s.depth_map_factor = 1.0;
-    ReadNumber(fs, "DepthDisparitySigma", name, &s.depth_disparity_sigma);
+    ReadDepthNoise(fs, name, &s.depth_noise);
     ReadInt(fs, "ORBextractor.nFeatures", name, &s.orb.n_features);
     ReadNumber(fs, "ORBextractor.scaleFactor", name, &s.orb.scale_factor);
     ReadInt(fs, "ORBextractor.nLevels", name, &s.orb.n_levels);
@@ -205,8 +258,11 @@ std::string FormatSettings(const Settings& s) {
       << "Camera.RGB: " << (s.rgb_order ? 1 : 0) << "\n"
       << "ThDepth: " << num(s.th_depth) << "\n"
       << "DepthMapFactor: " << num(s.depth_map_factor) << "\n";
-  if (s.depth_disparity_sigma > 0) {
-    out << "DepthDisparitySigma: " << num(s.depth_disparity_sigma) << "\n";
+  if (s.depth_noise.model == DepthNoise::Model::kQuadratic) {
+    out << "# Depth weighting: disparity sigma hypot(bf * k2, sampling) px (docs/track.md)\n"
+        << "DepthNoise.model: quadratic\n"
+        << "DepthNoise.k2: " << num(s.depth_noise.k2) << "\n"
+        << "DepthNoise.sampling: " << num(s.depth_noise.sampling) << "\n";
   }
   out << "ORBextractor.nFeatures: " << s.orb.n_features << "\n"
       << "ORBextractor.scaleFactor: " << num(s.orb.scale_factor) << "\n"

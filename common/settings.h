@@ -9,9 +9,9 @@
 //   Camera.RGB                                     1 RGB, 0 BGR order, default 1
 //   ThDepth                                        close/far threshold in baselines, default 40
 //   DepthMapFactor                                 depth PNG units per metre, default 5000
-//   DepthDisparitySigma                            depth noise as disparity, pixels, default 0
-//                                                  (rrslam's key; see
-//                                                  Settings::depth_disparity_sigma)
+//   DepthNoise.model / .k2 / .sampling             how depth is weighted (rrslam's keys; see
+//                                                  DepthNoise), default ORB-SLAM2's
+//   DepthDisparitySigma                            older form of DepthNoise (see there)
 //   ORBextractor.nFeatures/scaleFactor/nLevels/iniThFAST/minThFAST
 // Keys other than these are ignored, as ORB-SLAM2 does.
 #pragma once
@@ -32,6 +32,35 @@ struct OrbSettings {
   int min_th_fast = 7;        // FAST threshold for cells that give none; in [1, ini_th_fast].
 };
 
+// How tracking weighs a depth reading z (metres) of a keypoint: the noise of
+// the virtual disparity d = bf / z that it gives (docs/track.md, "Depth
+// weighting"). Used wherever depth enters a cost: pose optimization, local and
+// global bundle adjustment, the depth checks of triangulation and fusion.
+//   - kOrbSlam2 (`DepthNoise.model: orbslam2`, or no key): as ORB-SLAM2, the
+//     virtual right coordinate u_R = u - d has the keypoint's own pixel sigma
+//     (1 px at pyramid level 0, scale^level above).
+//   - kQuadratic (`DepthNoise.model: quadratic`): the sensor's depth error is
+//     sigma_z = k2 z^2 metres (`DepthNoise.k2`, 1/m; structured light and
+//     time of flight: about 1.425e-3 for the Kinect, Khoshelham and Elberink
+//     2012), which is bf * k2 pixels of disparity at every depth, combined
+//     with the error of reading the depth at the keypoint's pixel
+//     (`DepthNoise.sampling`, pixels of disparity: slanted surfaces, depth
+//     edges) as hypot(bf * k2, sampling); the disparity is weighted by it,
+//     independently of the keypoint's pyramid level.
+// The older key `DepthDisparitySigma: s` is the quadratic model with k2 = 0
+// and sampling = s (the same weights: s = hypot(bf * k2, sampling)); a file
+// may give it or the DepthNoise keys, not both.
+struct DepthNoise {
+  enum class Model { kOrbSlam2, kQuadratic };
+  Model model = Model::kOrbSlam2;
+  double k2 = 0.0;        // 1/m; >= 0; quadratic only.
+  double sampling = 0.0;  // Pixels of disparity; >= 0; quadratic only.
+
+  // The disparity sigma in pixels for a camera of baseline times fx `bf`;
+  // 0 for kOrbSlam2.
+  double DisparitySigma(double bf) const;
+};
+
 struct Settings {
   // Intrinsics (pixels) and distortion.
   double fx = 0, fy = 0, cx = 0, cy = 0;
@@ -44,13 +73,7 @@ struct Settings {
                                      // images through OpenCV, so this matters only for raw buffers.
   double th_depth = 40.0;            // Close/far threshold in baselines (ORB-SLAM2's ThDepth).
   double depth_map_factor = 5000.0;  // Depth PNG units per metre.
-  // Standard deviation, in pixels, of the virtual disparity bf / z that a
-  // depth reading z gives (for a sensor whose depth noise is k z^2 metres it
-  // is about bf * k, plus the error of sampling the depth at a keypoint).
-  // 0 (not given): depth is weighted as ORB-SLAM2 does, through u_R with the
-  // keypoint's own sigma. Given: tracking and mapping weight the disparity
-  // with this sigma, independently of the keypoint's pyramid level.
-  double depth_disparity_sigma = 0.0;
+  DepthNoise depth_noise;            // How depth is weighted; default ORB-SLAM2's.
   OrbSettings orb;
 
   std::filesystem::path source;  // File these settings came from (empty if built in code).

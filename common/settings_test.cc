@@ -4,6 +4,7 @@
 
 #include "common/errors.h"
 #include "common/testing.h"
+#include "common/yaml_text.h"
 
 namespace rrslam {
 namespace {
@@ -45,11 +46,13 @@ TEST(Settings, FormatReadRoundTrip) {
   s.width = 320;
   s.height = 240;
   s.orb.n_features = 500;
-  s.depth_disparity_sigma = 0.125;
+  s.depth_noise = {DepthNoise::Model::kQuadratic, 1.425e-3, 0.125};
   WriteSettings(dir / "s.yaml", s);
   const Settings r = ReadSettings(dir / "s.yaml");
   EXPECT_EQ(r.fx, s.fx);
-  EXPECT_EQ(r.depth_disparity_sigma, 0.125);
+  EXPECT_EQ(r.depth_noise.model, DepthNoise::Model::kQuadratic);
+  EXPECT_EQ(r.depth_noise.k2, 1.425e-3);
+  EXPECT_EQ(r.depth_noise.sampling, 0.125);
   EXPECT_EQ(r.cy, s.cy);
   EXPECT_EQ(r.distortion.k1, 0.125);
   EXPECT_EQ(r.width, 320);
@@ -66,8 +69,9 @@ TEST(Settings, DefaultsApplyToOptionalKeys) {
   EXPECT_TRUE(s.distortion.IsZero());
   EXPECT_EQ(s.width, 0);
   EXPECT_EQ(s.depth_map_factor, 5000.0);
-  EXPECT_EQ(s.depth_disparity_sigma, 0.0);
-  EXPECT_EQ(FormatSettings(s).find("DepthDisparitySigma"), std::string::npos);
+  EXPECT_EQ(s.depth_noise.model, DepthNoise::Model::kOrbSlam2);
+  EXPECT_EQ(s.depth_noise.DisparitySigma(s.bf), 0.0);
+  EXPECT_EQ(FormatSettings(s).find("DepthNoise"), std::string::npos);
   EXPECT_EQ(s.orb.n_levels, 8);
 }
 
@@ -100,6 +104,40 @@ TEST(Settings, RejectsBadFiles) {
   EXPECT_THROW(ReadSettings(dir / "absent.yaml"), NoInputError);
 }
 
+// The depth model's keys; the older DepthDisparitySigma is the quadratic
+// model with k2 = 0 and the same disparity sigma.
+TEST(Settings, ReadsTheDepthNoiseModel) {
+  const std::string intrinsics =
+      "%YAML:1.0\nCamera.fx: 500\nCamera.fy: 500\nCamera.cx: 320\nCamera.cy: 240\n";
+  testing::TempDir dir;
+  auto read = [&](const std::string& keys) {
+    testing::WriteTextFile(dir / "s.yaml", intrinsics + keys);
+    return ReadSettings(dir / "s.yaml");
+  };
+  Settings s = read("DepthNoise.model: quadratic\nDepthNoise.k2: 1.5e-3\n");
+  EXPECT_EQ(s.depth_noise.model, DepthNoise::Model::kQuadratic);
+  EXPECT_NEAR(s.depth_noise.DisparitySigma(s.bf), 40 * 1.5e-3, 1e-15);  // bf = 40 by default.
+  s = read("DepthNoise.model: quadratic\nDepthNoise.k2: 1.5e-3\nDepthNoise.sampling: 0.08\n");
+  EXPECT_NEAR(s.depth_noise.DisparitySigma(40), 0.1, 1e-15);  // hypot(0.06, 0.08).
+  s = read("DepthNoise.model: orbslam2\n");
+  EXPECT_EQ(s.depth_noise.model, DepthNoise::Model::kOrbSlam2);
+  s = read("DepthDisparitySigma: 0.115\n");
+  EXPECT_EQ(s.depth_noise.model, DepthNoise::Model::kQuadratic);
+  EXPECT_DOUBLE_EQ(s.depth_noise.DisparitySigma(s.bf), 0.115);
+  EXPECT_EQ(read("DepthDisparitySigma: 0\n").depth_noise.model, DepthNoise::Model::kOrbSlam2);
+
+  ExpectDataError(intrinsics + "DepthNoise.model: cubic\n",
+                  "DepthNoise.model = cubic; must be orbslam2 or quadratic");
+  ExpectDataError(intrinsics + "DepthNoise.k2: 1e-3\n", "need DepthNoise.model: quadratic");
+  ExpectDataError(intrinsics + "DepthNoise.model: orbslam2\nDepthNoise.k2: 1e-3\n",
+                  "takes no DepthNoise.k2");
+  ExpectDataError(intrinsics + "DepthNoise.model: quadratic\n", "trusts depth without limit");
+  ExpectDataError(intrinsics + "DepthNoise.model: quadratic\nDepthNoise.k2: -1e-3\n",
+                  "DepthNoise.k2 = -0.001; must be >= 0");
+  ExpectDataError(intrinsics + "DepthDisparitySigma: 0.1\nDepthNoise.model: quadratic\n",
+                  "both DepthDisparitySigma and DepthNoise");
+}
+
 TEST(Settings, CheckNamesEachConstraint) {
   Settings base;
   base.fx = base.fy = 500;
@@ -117,7 +155,18 @@ TEST(Settings, CheckNamesEachConstraint) {
       {[](Settings& s) { s.bf = 0; }, "Camera.bf"},
       {[](Settings& s) { s.th_depth = 0; }, "ThDepth"},
       {[](Settings& s) { s.depth_map_factor = -5; }, "DepthMapFactor"},
-      {[](Settings& s) { s.depth_disparity_sigma = -0.1; }, "DepthDisparitySigma"},
+      {[](Settings& s) {
+         s.depth_noise = {DepthNoise::Model::kQuadratic, -1e-3, 0.1};
+       },
+       "DepthNoise.k2"},
+      {[](Settings& s) {
+         s.depth_noise = {DepthNoise::Model::kQuadratic, 1e-3, -0.1};
+       },
+       "DepthNoise.sampling"},
+      {[](Settings& s) {
+         s.depth_noise = {DepthNoise::Model::kQuadratic, 0, 0};
+       },
+       "without limit"},
       {[](Settings& s) { s.orb.n_features = 0; }, "nFeatures"},
       {[](Settings& s) { s.orb.scale_factor = 1.0; }, "scaleFactor"},
       {[](Settings& s) { s.orb.n_levels = 17; }, "nLevels"},
@@ -237,6 +286,55 @@ TEST(Settings, RejectsTextThatIsNotOneMapAtColumnZero) {
                     "s.yaml")
           .fx,
       500);
+}
+
+// Found in review (issue 36): text nested tens of thousands of levels deep
+// overflowed the stack in OpenCV's recursive YAML parser (exit 139), in
+// settings and --viewpoint files alike. ParseYamlText now counts the depth
+// first and refuses more than kMaxYamlNesting levels, flow or block.
+TEST(Settings, RejectsYamlNestedTooDeep) {
+  const size_t n = 100000;
+  std::string maps, keys, dashes, tags;
+  for (size_t i = 0; i < n; ++i) {
+    maps += "{a: ";
+    keys += "a: ";
+    dashes += "- ";
+    tags += "!!opencv-matrix [";
+  }
+  std::string indented = "Camera.fx:\n";  // One more block map per line.
+  for (int i = 1; i <= 100; ++i) indented += std::string(i, ' ') + "a:\n";
+  const std::pair<std::string, std::string> cases[] = {
+      {"Camera.fx: " + std::string(n, '[') + std::string(n, ']') + "\n", "line 2"},
+      {"Camera.fx: " + maps + "1" + std::string(n, '}') + "\n", "line 2"},
+      {"Camera.fx: " + keys + "1\n", "line 2"},
+      {"Camera.fx: " + dashes + "1\n", "line 2"},
+      {"Camera.fx: " + tags + "\n", "line 2"},
+      {"Camera.fx: [\n  " + std::string(n, '[') + "\n", "line 3"},
+      {indented, "line 66"}};
+  for (const auto& [body, line] : cases) {
+    const std::string text = "%YAML:1.0\n" + body;
+    for (const bool viewpoint : {false, true}) {
+      try {
+        viewpoint ? (void)ParseViewpoint(text, "s.yaml") : (void)ParseSettings(text, "s.yaml");
+        FAIL() << "accepted: " << text.substr(0, 80);
+      } catch (const DataError& e) {
+        EXPECT_EQ(std::string(e.what()), "s.yaml: " + line + ": YAML nested deeper than " +
+                                             std::to_string(kMaxYamlNesting) + " levels")
+            << text.substr(0, 80);
+      }
+    }
+  }
+  // kMaxYamlNesting collections in all (the top-level map is one) pass.
+  const auto nested = [](int levels) {
+    return "%YAML:1.0\nCamera.fx: " + std::string(levels - 1, '[') + "1" +
+           std::string(levels - 1, ']') + "\n";
+  };
+  EXPECT_NO_THROW(CheckYamlNesting(nested(kMaxYamlNesting), "s.yaml"));
+  EXPECT_THROW(CheckYamlNesting(nested(kMaxYamlNesting + 1), "s.yaml"), DataError);
+  // Brackets in quoted strings and keys, and comments, do not nest.
+  EXPECT_NO_THROW(CheckYamlNesting("%YAML:1.0\nk[[: '" + std::string(200, '[') + "'\nc: [1, # " +
+                                       std::string(200, '{') + "\n 2]\n",
+                                   "s.yaml"));
 }
 
 }  // namespace

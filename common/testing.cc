@@ -35,6 +35,20 @@ std::optional<fs::path> SharedDataDir() {
   return std::nullopt;
 }
 
+bool ResetPeakResident() {
+  std::ofstream clear("/proc/self/clear_refs");
+  clear << "5";
+  return static_cast<bool>(clear.flush()) && PeakResidentKb() >= 0;
+}
+
+long PeakResidentKb() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stol(line.substr(6));
+  }
+  return -1;
+}
+
 fs::path BinDir() {
   const char* env = std::getenv("RRSLAM_BIN_DIR");
   return env != nullptr ? fs::path(env) : fs::path("build/bin");

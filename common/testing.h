@@ -46,6 +46,14 @@ std::filesystem::path FuzzSeedFolder(const TempDir& temp);
 // compiled from): for tests that run its Makefile or scripts.
 std::filesystem::path SourceDir();
 
+// Peak resident memory of this process, kB (VmHWM of /proc/self/status; -1
+// when unknown), for tests that a refused input is refused before it is read
+// or allocated: ResetPeakResident() first sets the peak to the current
+// resident size, and returns false where the kernel does not allow it (the
+// test then skips).
+bool ResetPeakResident();
+long PeakResidentKb();
+
 // `path` single-quoted for a shell command line (ShellQuote).
 std::string Quote(const std::filesystem::path& path);
 

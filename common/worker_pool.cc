@@ -1,18 +1,42 @@
 #include "common/worker_pool.h"
 
+#include <string>
+#include <system_error>
+
+#include "common/errors.h"
+
 namespace rrslam {
 
 WorkerPool::WorkerPool(int threads) {
-  for (int i = 1; i < threads; ++i) workers_.emplace_back([this] { WorkerLoop(); });
+  workers_.reserve(threads > 1 ? static_cast<size_t>(threads) - 1 : 0);
+  for (int i = 1; i < threads; ++i) {
+    try {
+      workers_.emplace_back([this] { WorkerLoop(); });
+    } catch (const std::system_error& e) {
+      // The destructor does not run for a constructor that throws: without
+      // this, the members would be destroyed under running threads (a
+      // condition variable destroyed with waiters blocks for ever).
+      StopAndJoin();
+      throw ResourceError("cannot start worker thread " + std::to_string(i + 1) + " of " +
+                          std::to_string(threads) + " (" + e.what() +
+                          "); use fewer threads or raise the memory / thread limits");
+    } catch (...) {
+      StopAndJoin();
+      throw;
+    }
+  }
 }
 
-WorkerPool::~WorkerPool() {
+WorkerPool::~WorkerPool() { StopAndJoin(); }
+
+void WorkerPool::StopAndJoin() {
   {
     std::lock_guard lock(mutex_);
     stop_ = true;
   }
   wake_.notify_all();
   for (std::thread& t : workers_) t.join();
+  workers_.clear();
 }
 
 void WorkerPool::ParallelFor(size_t n, const std::function<void(size_t)>& fn) {

@@ -16,9 +16,18 @@
 
 namespace rrslam {
 
+// Most threads an rrslam tool runs for its --threads option: each tool's
+// options Check refuses more (exit 64). Four times the cores of the largest
+// machine the tools are meant for; every thread reserves a stack (8 MB of
+// address space by default), so thousands would only exhaust memory.
+inline constexpr int kMaxThreads = 256;
+
 class WorkerPool {
  public:
   // `threads` in all, the calling thread included (values below 1 count as 1).
+  // Throws ResourceError (exit 75) when a thread cannot be started (the
+  // system's limit on threads or on address space, `ulimit -v`, is reached),
+  // after stopping and joining the threads already started.
   explicit WorkerPool(int threads);
   ~WorkerPool();
   WorkerPool(const WorkerPool&) = delete;
@@ -37,6 +46,7 @@ class WorkerPool {
  private:
   void RunIndices(const std::function<void(size_t)>& fn, size_t n);
   void WorkerLoop();
+  void StopAndJoin();
 
   std::vector<std::thread> workers_;
   std::mutex mutex_;

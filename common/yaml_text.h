@@ -27,11 +27,29 @@ namespace rrslam {
 // document holding a map of keys at column 0").
 void CheckYamlIsOneMap(std::string_view text, const std::string& name, const std::string& shape);
 
-// Parses `text` (held in memory) as YAML, after CheckYamlIsOneMap. Throws a
-// one-line DataError "<name>: not a valid YAML file: line N: <what>" when
-// OpenCV's parser fails, including on the exceptions other than
-// cv::Exception it lets escape (std::length_error on an empty key in a flow
-// map, "{ :a: 1 }"; found by stages/vocab/fuzz/vocab_yaml_fuzzer.cc).
+// Deepest nesting of YAML collections ParseYamlText accepts. OpenCV's parser
+// recurses once per level (flow '[' / '{', block indentation, and "a: b:" or
+// "- -" on one line) and overflows an 8 MB stack at about 40000 levels, a
+// thread's smaller stack far sooner; rrslam's files nest 4 levels at most.
+inline constexpr int kMaxYamlNesting = 64;
+
+// Throws DataError "<name>: line N: YAML nested deeper than 64 levels" when
+// OpenCV's parser would be inside more than kMaxYamlNesting collections at
+// once on `text` (the top-level map is one; flow '[' and '{', block
+// sequences and maps, nested across lines or on one line as "a: b: 1" and
+// "- - 1"). The depth is found by following the parser's own rules (keys,
+// quoted strings, comments, indentation) without recursing; where the text
+// would stop the parser with a syntax error, what follows is not looked at.
+// Also throws DataError for the two constructs the count does not follow:
+// "!!binary" data and "!<...>" tags (no rrslam file holds them).
+void CheckYamlNesting(std::string_view text, const std::string& name);
+
+// Parses `text` (held in memory) as YAML, after CheckYamlIsOneMap and
+// CheckYamlNesting. Throws a one-line DataError
+// "<name>: not a valid YAML file: line N: <what>" when OpenCV's parser
+// fails, including on the exceptions other than cv::Exception it lets escape
+// (std::length_error on an empty key in a flow map, "{ :a: 1 }"; found by
+// stages/vocab/fuzz/vocab_yaml_fuzzer.cc).
 cv::FileStorage ParseYamlText(const std::string& text, const std::string& name,
                               const std::string& shape);
 

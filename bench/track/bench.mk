@@ -33,8 +33,8 @@
 # Result: bench/results/track-<UTC date>[-BENCH_TRACK_TAG].txt (and .json).
 #
 # To measure an option of rrslam-track (docs/track.md, "Departures from
-# ORB-SLAM2"): make bench-track BENCH_TRACK_ARGS="--close-tracked 300"
-# BENCH_TRACK_TAG=close300 BENCH_TRACK_QUICK=1 (QUICK skips the repeated and
+# ORB-SLAM2"): make bench-track BENCH_TRACK_ARGS="--close-tracked 100"
+# BENCH_TRACK_TAG=close100 BENCH_TRACK_QUICK=1 (QUICK skips the repeated and
 # the realtime runs).
 #
 # The inputs live under BENCH_TRACK_DIR (default build/bench-data/track). The
@@ -57,6 +57,10 @@ BENCH_TRACK_PATHS := loop sweep rotation
 BENCH_TRACK_ARGS ?=
 BENCH_TRACK_TAG ?=
 BENCH_TRACK_QUICK ?= 0
+# ORB-SLAM2's figures on the same cases (`make bench-orbslam2`, committed), by
+# which the runs are scored under the rule for defaults (issue 30,
+# bench/track/default_rule.h); empty: no score.
+BENCH_TRACK_ORBSLAM2 ?= bench/results/orbslam2-2026-12-02.tsv
 # Real sequences by name (bench/real_sequences.mk finds each one's folder and
 # settings, so any other sequence is measured by naming it), with the ATE goal
 # (cm) of issue 11 where it set one (others: reported, not judged).
@@ -153,10 +157,10 @@ bench-track: configure
 	    --real-vocabs "$(call bench_track_vocabs,$(n))" \
 	    --real-kidnapped "$(BENCH_TRACK_DIR)/kidnapped/$(n) $(word 2,$(call bench_track_kidnap,$(n)))") \
 	  --paths "$(BENCH_TRACK_PATHS)" --shake --loops "$(BENCH_TRACK_LOOPS)" \
-	  --track-args "$(BENCH_TRACK_ARGS)" \
+	  --track-args "$(BENCH_TRACK_ARGS)" $(if $(BENCH_TRACK_ORBSLAM2),--orbslam2 $(BENCH_TRACK_ORBSLAM2)) \
 	  $(if $(filter 1,$(BENCH_TRACK_QUICK)),--quick) $(if $(BENCH_TRACK_TAG),--tag $(BENCH_TRACK_TAG)) \
 	  --machine "$$(bench/machine.sh)" \
-	  --command '$(call bench_command,bench-track,BENCH_TRACK_REAL BENCH_TRACK_ARGS BENCH_TRACK_QUICK BENCH_TRACK_TAG BENCH_TRACK_DIR)' \
+	  --command '$(call bench_command,bench-track,BENCH_TRACK_REAL BENCH_TRACK_ARGS BENCH_TRACK_QUICK BENCH_TRACK_TAG BENCH_TRACK_DIR BENCH_TRACK_ORBSLAM2)' \
 	  --out bench/results/track-$$(date -u +%Y-%m-%d)$(if $(BENCH_TRACK_TAG),-$(BENCH_TRACK_TAG))
 
 BENCH_TARGETS += bench-track

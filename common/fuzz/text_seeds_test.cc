@@ -48,7 +48,7 @@ TEST(TextSeeds, Settings) {
   full.distortion = {0.25, -0.875, 0.001, -0.002, 1.125};
   full.width = 640;
   full.height = 480;
-  full.depth_disparity_sigma = 0.25;
+  full.depth_noise = {DepthNoise::Model::kQuadratic, 1.425e-3, 0.25};
   full.orb.n_features = 1500;
   // The layout of ORB-SLAM2's example settings (comments, "#----" rules,
   // viewer and other keys the reader ignores), with invented values.

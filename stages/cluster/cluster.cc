@@ -10,6 +10,7 @@
 #include "common/errors.h"
 #include "common/output_path.h"
 #include "common/progress.h"
+#include "common/worker_pool.h"
 #include "stages/cluster/hkmeans.h"
 #include "stages/extract/features_file.h"
 
@@ -30,7 +31,10 @@ bool ClusterOptions::Check(std::string* why) const {
   if (levels < 1 || levels > 10) {
     return fail("levels = " + std::to_string(levels) + "; must be in [1, 10]");
   }
-  if (threads < 0) return fail("threads = " + std::to_string(threads) + "; must be >= 0");
+  if (threads < 0 || threads > kMaxThreads) {
+    return fail("threads = " + std::to_string(threads) + "; must be in [0, " +
+                std::to_string(kMaxThreads) + "] (0 = all cores)");
+  }
   if (stride < 1) return fail("stride = " + std::to_string(stride) + "; must be >= 1");
   if (max_iterations < 1) {
     return fail("max_iterations = " + std::to_string(max_iterations) + "; must be >= 1");
@@ -61,7 +65,8 @@ void BindClusterOptions(CLI::App& app, ClusterOptions* o) {
       ->capture_default_str();
   app.add_option("--levels,-L", o->levels, "Depth of the tree, [1, 10]")->capture_default_str();
   app.add_option("--seed", o->seed, "Random seed (same seed, same tree)")->capture_default_str();
-  app.add_option("--threads", o->threads, "Worker threads, 0 = all cores (never changes the tree)")
+  app.add_option("--threads", o->threads,
+                 "Worker threads, in [0, 256], 0 = all cores (never changes the tree)")
       ->capture_default_str();
   app.add_option("--stride", o->stride, "Use every N-th frame of each features file")
       ->capture_default_str();

@@ -29,7 +29,8 @@ struct ClusterOptions {
   int levels = 6;
   // Seed of every random choice; the same inputs and seed give the same tree.
   uint64_t seed = 0;
-  // Worker threads; 0 = all hardware threads. Does not change the tree.
+  // Worker threads; 0 = all hardware threads; in [0, kMaxThreads = 256]
+  // (common/worker_pool.h). Does not change the tree.
   int threads = 0;
   // Use descriptors of every `stride`-th frame only (>= 1).
   int stride = 1;

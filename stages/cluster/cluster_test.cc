@@ -6,6 +6,7 @@
 
 #include "common/errors.h"
 #include "common/testing.h"
+#include "common/worker_pool.h"
 #include "stages/extract/features_file.h"
 
 namespace rrslam {
@@ -55,6 +56,24 @@ TEST(ClusterOptions, EachConstraintFails) {
   o = ValidOptions();
   o.max_iterations = 0;
   ExpectCheckFails(o, "max_iterations");
+}
+
+// Found in review (issue 36): `--threads 100000` hung (the pool waited for
+// ever once a thread could not be started); more threads than kMaxThreads
+// are now a usage error (exit 64) before any is started.
+TEST(ClusterOptions, ThreadsAreBounded) {
+  ClusterOptions o = ValidOptions();
+  std::string why;
+  for (int threads : {0, 1, kMaxThreads}) {
+    o.threads = threads;
+    EXPECT_TRUE(o.Check(&why)) << threads << ": " << why;
+  }
+  for (int threads : {kMaxThreads + 1, 1000, 100000}) {
+    o.threads = threads;
+    EXPECT_FALSE(o.Check(&why)) << threads;
+    EXPECT_EQ(why,
+              "threads = " + std::to_string(threads) + "; must be in [0, 256] (0 = all cores)");
+  }
 }
 
 // `frames` frames of `per_frame` random descriptors.

@@ -15,6 +15,7 @@
 #include "common/cli.h"
 #include "common/errors.h"
 #include "common/image_io.h"
+#include "common/json_text.h"
 #include "common/output_path.h"
 #include "stages/eval/eval.h"
 #include "stages/eval/plot.h"
@@ -379,12 +380,17 @@ cv::Mat RenderCompareChart(const CompareTable& table, const CompareChartOptions&
   const size_t n_rows = table.sequences.size(), n_columns = table.columns.size();
   bool any_failed = false, any_skipped = false, any_lost = false;
   double max_cm = 0;
-  for (const auto& row : table.cells) {
-    for (const CompareCell& cell : row) {
+  std::string largest;  // "<variant>/<sequence>" of the largest RMSE.
+  for (size_t r = 0; r < table.cells.size(); ++r) {
+    for (size_t c = 0; c < table.cells[r].size(); ++c) {
+      const CompareCell& cell = table.cells[r][c];
       any_failed |= cell.failed();
       any_skipped |= cell.skipped();
       any_lost |= cell.evaluated() && cell.lost_frames();
-      if (cell.evaluated()) max_cm = std::max(max_cm, 100 * cell.run->ate_rmse_m);
+      if (cell.evaluated() && 100 * cell.run->ate_rmse_m > max_cm) {
+        max_cm = 100 * cell.run->ate_rmse_m;
+        largest = table.columns[c].name + "/" + table.sequences[r];
+      }
     }
   }
   const bool footer = any_failed || any_skipped || any_lost;
@@ -401,6 +407,12 @@ cv::Mat RenderCompareChart(const CompareTable& table, const CompareChartOptions&
   const double headroom_px = std::min(legend_height + 2.0 * text_height, 0.5 * area.height);
   if (!(max_cm > 0)) max_cm = 1;  // Nothing evaluated (or all zero): an axis to 1 cm.
   const double v_top = max_cm * area.height / (area.height - headroom_px);
+  if (!std::isfinite(v_top)) {
+    // ReadRunSummary refuses RMSEs that are not finite; one near DBL_MAX
+    // metres still overflows in centimetres, past what an axis can show.
+    throw DataError("compare chart: the ATE RMSE of " + largest +
+                    " is too large to chart (its centimetres overflow a double)");
+  }
   Axes2d axes;
   axes.centre_u = n_rows / 2.0;  // Group i spans u in [i, i + 1].
   axes.centre_v = v_top / 2;
@@ -411,7 +423,7 @@ cv::Mat RenderCompareChart(const CompareTable& table, const CompareChartOptions&
   // Horizontal grid, ticks and labels about 110 px apart (as DrawGrid, which
   // would also label the categorical u axis with numbers).
   const double step = NiceStep(110.0 * layout.ui / axes.pixels_per_v);
-  for (double v = 0; v <= v_top + 1e-9 * step; v += step) {
+  for (const double v : TickValues(0, v_top + 1e-9 * step, step)) {
     const double y = axes(Eigen::Vector2d(0, v)).y;
     cv::line(image, SubPixel({double(area.x), y}), SubPixel({double(area.br().x), y}), kGrid, 1,
              cv::LINE_AA, kShift);
@@ -455,9 +467,13 @@ cv::Mat RenderCompareChart(const CompareTable& table, const CompareChartOptions&
             (show_values ? Fixed(cm, 2) : "") + (cell.lost_frames() ? "*" : "");
         const double label_y = top_y - 0.5 * text_height;
         PutText(image, label, {centre_x, label_y}, value_font, 1, 0.5, 1);
-        for (double y = label_y - text_height; y <= base_y; y += 0.5 * text_height) {
-          occupied.emplace_back(centre_x, y);
-        }
+        // Counted, not stepped: y += 0.5 * text_height stalls on huge y.
+        const double first_y = std::max(label_y - text_height, 0.0);
+        const int points = std::isfinite(first_y) && first_y <= base_y
+                               ? static_cast<int>((base_y - first_y) / (0.5 * text_height)) + 1
+                               : 0;
+        for (int k = 0; k < points; ++k)
+          occupied.emplace_back(centre_x, first_y + 0.5 * text_height * k);
       } else if (cell.failed() || cell.skipped()) {
         // A cross (failed) or a dash (skipped) on the axis, in the column's colour.
         const double half = std::clamp(0.35 * bar_px, 2.0, 0.7 * text_height);
@@ -608,7 +624,7 @@ CompareTable RunEvalCompare(const EvalCompareOptions& options, std::ostream& out
   if (options.json) {
     nlohmann::ordered_json report_options = options_json;
     report_options.erase("columns");  // The report lists them as its inputs.
-    report = CompareToJson(table, report_options).dump(2) + "\n";
+    report = DumpJson(CompareToJson(table, report_options), 2) + "\n";
   } else {
     report = FormatCompareTable(table, options.title);
   }
@@ -619,7 +635,7 @@ CompareTable RunEvalCompare(const EvalCompareOptions& options, std::ostream& out
         RenderCompareChart(table, options.plot, options.title), kPlotPngCompression,
         {{"Software", Producer("eval")},
          {"Comment",
-          nlohmann::ordered_json{{"command", "compare"}, {"options", options_json}}.dump()}});
+          DumpJson(nlohmann::ordered_json{{"command", "compare"}, {"options", options_json}})}});
     files.emplace_back(options.plot_path, std::string(png.begin(), png.end()));
   }
   if (!options.out.empty()) files.emplace_back(options.out, report);

@@ -370,5 +370,58 @@ TEST(Compare, HelpListsTheFlags) {
   }
 }
 
+// Found in review (issue 36): an ate.json with a negative or infinite RMSE
+// (1e999 reads as infinity) was compared and charted, and the chart's grid
+// loop never ended. The reader refuses it, naming the file and the line.
+TEST(Compare, NegativeOrInfiniteRmseIsBadDataNamingFileAndLine) {
+  testing::TempDir dir;
+  MakeRuns(dir.path());
+  const fs::path ate = dir / "general" / "fr1_room" / "ate.json";
+  for (const std::string value : {"-0.5", "1e999"}) {
+    testing::WriteTextFile(ate, "{\n  \"pairs\": 5,\n  \"ate_m\": {\n    \"rmse\": " + value +
+                                    ",\n    \"mean\": 0.03,\n    \"max\": 0.1\n  }\n}\n");
+    try {
+      ReadCompareTable(Columns(dir.path()));
+      ADD_FAILURE() << "accepted " << value;
+    } catch (const DataError& e) {
+      EXPECT_EQ(std::string(e.what()),
+                ate.string() + " line 4: " +
+                    (value == "-0.5" ? "ate_m.rmse = -0.5; must be a finite distance >= 0 m"
+                                     : "1e999 is not a finite number"));
+    }
+  }
+  const std::string columns = "compare --column own=" + (dir / "own").string() +
+                              " --column general=" + (dir / "general").string() + " --plot " +
+                              (dir / "c.png").string();
+  const auto r = testing::RunTool("eval", columns);
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find(ate.string() + " line 4: 1e999 is not a finite number"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(dir / "c.png"));
+}
+
+// Found in review (issue 36): one RMSE of 1e308 m (finite, but infinite in
+// centimetres) made the chart's grid loop run for ever. Such a chart is a
+// one-line DataError naming the cell; huge finite ones are drawn.
+TEST(Compare, ChartOfAnRmseTooLargeToDrawIsADataError) {
+  testing::TempDir dir;
+  MakeRuns(dir.path());
+  MakeRun(dir / "own" / "fr1_desk", 1e302);  // 1e300 m.
+  EXPECT_EQ(RenderCompareChart(ReadCompareTable(Columns(dir.path())), {}).cols,
+            CompareChartOptions{}.width_px);
+  testing::WriteTextFile(dir / "own" / "fr1_desk" / "ate.json",
+                         R"({"pairs": 5, "ate_m": {"rmse": 1e308, "mean": 1e307, "max": 1e308}})");
+  const CompareTable table = ReadCompareTable(Columns(dir.path()));
+  try {
+    RenderCompareChart(table, {});
+    ADD_FAILURE() << "drew an RMSE of 1e308 m";
+  } catch (const DataError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "compare chart: the ATE RMSE of own/fr1_desk is too large to chart (its "
+              "centimetres overflow a double)");
+  }
+}
+
 }  // namespace
 }  // namespace rrslam

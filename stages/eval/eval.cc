@@ -13,6 +13,7 @@
 #include "common/cli.h"
 #include "common/errors.h"
 #include "common/image_io.h"
+#include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/trajectory.h"
 
@@ -53,7 +54,7 @@ class PendingOutput {
 };
 
 std::string Header(const nlohmann::ordered_json& run, const std::string& columns) {
-  return "# " + Producer(kStage) + " " + run.dump() + "\n# " + columns + "\n";
+  return "# " + Producer(kStage) + " " + DumpJson(run) + "\n# " + columns + "\n";
 }
 
 std::string Lowercase(std::string text) {
@@ -85,7 +86,7 @@ std::string Report(bool json, const char* command, const fs::path& gt, const fs:
                               {"est", est.string()},
                               {"options", std::move(options)}};
   j.update(results);
-  return j.dump(2) + "\n";
+  return DumpJson(j, 2) + "\n";
 }
 
 }  // namespace
@@ -209,13 +210,12 @@ AteResult RunEvalAte(const EvalAteOptions& options, std::ostream& out) {
                            FormatTumTrajectory(result.est_aligned));
   }
   if (!options.plot_path.empty()) {
-    const std::vector<uint8_t> png =
-        EncodePng(RenderAtePlot(gt, result, options.plot), kPlotPngCompression,
-                  {{"Software", Producer(kStage)},
-                   {"Comment", nlohmann::ordered_json{{"run", run},
-                                                      {"ate_m", ErrorStatsToJson(result.error)},
-                                                      {"pairs", result.pairs.size()}}
-                                   .dump()}});
+    const std::vector<uint8_t> png = EncodePng(
+        RenderAtePlot(gt, result, options.plot), kPlotPngCompression,
+        {{"Software", Producer(kStage)},
+         {"Comment", DumpJson(nlohmann::ordered_json{{"run", run},
+                                                     {"ate_m", ErrorStatsToJson(result.error)},
+                                                     {"pairs", result.pairs.size()}})}});
     files.emplace_back(options.plot_path, std::string(png.begin(), png.end()));
   }
   nlohmann::ordered_json results = AteResultToJson(result);

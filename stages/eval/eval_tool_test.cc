@@ -8,6 +8,7 @@
 
 #include "common/atomic_file.h"
 #include "common/geometry.h"
+#include "common/json_text.h"
 #include "common/testing.h"
 #include "common/text.h"
 #include "common/trajectory.h"
@@ -117,6 +118,34 @@ TEST_F(EvalTool, OutWritesTheReportToAFileInsteadOfStdout) {
   EXPECT_NE(ReadFileToString(dir_ / "rpe.txt").find("compared_pose_pairs"), std::string::npos);
   // The report may not overwrite an input.
   EXPECT_EQ(RunTool("eval", "ate " + Inputs() + " --out " + Quote(est_)).exit_code, 64);
+}
+
+// A folder name in Latin-1 (legal on Linux, not UTF-8): the JSON report, the
+// plot's metadata and the file headers record the paths (common/json_text.h)
+// instead of failing with nlohmann's type_error 316 (exit 70).
+TEST_F(EvalTool, PathsThatAreNotUtf8RoundTripThroughTheReports) {
+  const fs::path dir = dir_ / "caf\xe9";
+  fs::create_directories(dir);
+  const fs::path gt = dir / "gt.txt", est = dir / "est.txt", report = dir / "ate.json";
+  fs::copy_file(gt_, gt);
+  fs::copy_file(est_, est);
+  const std::string inputs = "--gt " + Quote(gt) + " --est " + Quote(est);
+  const auto ate = RunTool("eval", "ate --json " + inputs + " --out " + Quote(report) + " --plot " +
+                                       Quote(dir / "ate.png") + " --save-associations " +
+                                       Quote(dir / "pairs.txt"));
+  ASSERT_EQ(ate.exit_code, 0) << ate.output;
+  const auto json = nlohmann::json::parse(ReadFileToString(report));
+  EXPECT_EQ(json["pairs"], 150);
+  EXPECT_EQ(PathFromJson(json["gt"].get<std::string>()), gt);
+  EXPECT_EQ(PathFromJson(json["est"].get<std::string>()), est);
+  const auto rpe = RunTool("eval", "rpe --json " + inputs + " --delta 1 --delta-unit f --out " +
+                                       Quote(dir / "rpe.json") + " --save-pairs " +
+                                       Quote(dir / "rpe_pairs.txt"));
+  ASSERT_EQ(rpe.exit_code, 0) << rpe.output;
+  EXPECT_EQ(
+      PathFromJson(
+          nlohmann::json::parse(ReadFileToString(dir / "rpe.json"))["est"].get<std::string>()),
+      est);
 }
 
 TEST_F(EvalTool, RpeTextAndJson) {

@@ -113,5 +113,23 @@ TEST(PlotAte, WritesAReadablePngAtomically) {
   EXPECT_FALSE(std::filesystem::exists(dir / "missing"));
 }
 
+// Found in review (issue 36): a ground truth 1e17 m from the origin hung the
+// plot: its grid loop added a 0.1 m step that 1e17 cannot hold. Such an
+// axis now gets no grid; positions beyond 2 * DBL_MAX of span still fit.
+TEST(RenderAtePlot, FarFromTheOriginDrawsWithoutAGridInsteadOfHanging) {
+  for (const double offset : {1e17, 1e300}) {
+    Trajectory gt = MakeGroundTruth(100);
+    for (StampedPose& p : gt) p.T_world_cam.translation += Eigen::Vector3d(offset, 0, offset);
+    const cv::Mat image = RenderAtePlot(gt, MakeResult(gt), PlotOptions{});
+    EXPECT_EQ(image.cols, PlotOptions{}.width_px) << offset;
+  }
+  Trajectory wide = MakeGroundTruth(100);
+  wide[0].T_world_cam.translation.x() = -1.7e308;
+  wide[1].T_world_cam.translation.x() = 1.7e308;
+  AteResult result;
+  result.est_aligned = wide;
+  EXPECT_EQ(RenderAtePlot(wide, result, PlotOptions{}).cols, PlotOptions{}.width_px);
+}
+
 }  // namespace
 }  // namespace rrslam

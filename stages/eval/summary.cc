@@ -1,13 +1,18 @@
 #include "stages/eval/summary.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <map>
 #include <ostream>
 #include <string_view>
+#include <utility>
 
 #include "common/atomic_file.h"
 #include "common/cli.h"
 #include "common/errors.h"
+#include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/text.h"
 
@@ -17,8 +22,31 @@ namespace {
 
 constexpr char kReferenceHeader[] = "sequence,ate_rmse_cm,source";
 
+// " line N" of the character at offset `at` of `text`; empty for npos.
+std::string LineOf(const std::string& text, size_t at) {
+  if (at == std::string::npos) return "";
+  return " line " + std::to_string(1 + std::count(text.begin(), text.begin() + at, '\n'));
+}
+
 nlohmann::json ReadJson(const fs::path& path) {
-  const nlohmann::json j = nlohmann::json::parse(ReadFileToString(path), nullptr, false);
+  const std::string text = ReadFileToString(path);
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded()) {
+    // nlohmann::json refuses a number beyond a double ("1e999") as it
+    // refuses a syntax error; an infinite ATE is no measurement: say where.
+    try {
+      [[maybe_unused]] const nlohmann::json again = nlohmann::json::parse(text);
+    } catch (const nlohmann::json::out_of_range& e) {
+      const std::string message = e.what();  // "... number overflow parsing '1e999'".
+      const size_t open = message.find('\''), close = message.rfind('\'');
+      if (open != std::string::npos && close > open) {
+        const std::string token = message.substr(open + 1, close - open - 1);
+        throw DataError(path.string() + LineOf(text, text.find(token)) + ": " + token +
+                        " is not a finite number");
+      }
+    } catch (const nlohmann::json::exception&) {
+    }
+  }
   if (j.is_discarded() || !j.is_object()) throw DataError(path.string() + ": not a JSON object");
   return j;
 }
@@ -39,6 +67,18 @@ std::optional<T> Number(const nlohmann::json& j, const char* pointer, const fs::
   const nlohmann::json& value = j.at(p);
   if (!value.is_number()) throw DataError(path.string() + ": " + pointer + " is not a number");
   return value.get<T>();
+}
+
+// " line N" of the JSON key `keys.back()`, found after each key before it
+// ("ate_m", then "rmse"), by text search (nlohmann::json keeps no
+// positions); empty when not found.
+std::string LineOfKeys(const std::string& text, std::initializer_list<std::string> keys) {
+  size_t at = 0;
+  for (const std::string& key : keys) {
+    at = text.find('"' + key + '"', at);
+    if (at == std::string::npos) return "";
+  }
+  return LineOf(text, at);
 }
 
 std::string Cell(const std::optional<int64_t>& value) {
@@ -153,6 +193,17 @@ RunSummary ReadRunSummary(const fs::path& dir) {
   const auto max = Number<double>(j, "/ate_m/max", ate);
   if (!pairs || !rmse || !mean || !max) {
     throw DataError(ate.string() + ": not an `rrslam-eval ate --json` result (pairs, ate_m)");
+  }
+  // A negative error is no measurement (an infinite one, 1e999 in the text,
+  // is refused by ReadJson), and either would stall the charts drawn from it.
+  for (const auto& [key, value] :
+       {std::pair<const char*, double>{"rmse", *rmse}, {"mean", *mean}, {"max", *max}}) {
+    if (!(std::isfinite(value) && value >= 0)) {
+      char text[32];
+      std::snprintf(text, sizeof(text), "%g", value);
+      throw DataError(ate.string() + LineOfKeys(ReadFileToString(ate), {"ate_m", key}) +
+                      ": ate_m." + key + " = " + text + "; must be a finite distance >= 0 m");
+    }
   }
   run.evaluated = true;
   run.pairs = *pairs;
@@ -350,7 +401,7 @@ void RunEvalSummary(const EvalSummaryOptions& options, std::ostream& out) {
     AttachReferences(ReadReferenceAte(options.reference), &runs);
     reference = ReferenceColumn{options.reference_name, options.reference};
   }
-  const std::string text = options.json ? SummaryToJson(runs, reference).dump(2) + "\n"
+  const std::string text = options.json ? DumpJson(SummaryToJson(runs, reference), 2) + "\n"
                                         : FormatSummaryTable(runs, reference);
   if (options.out.empty()) {
     out << text;

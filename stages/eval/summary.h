@@ -43,7 +43,9 @@ struct RunSummary {
 };
 
 // Reads one run folder. Throws DataError when ate.json or run.json exists
-// but is not valid JSON of the expected shape (names the file).
+// but is not valid JSON of the expected shape (names the file), or when an
+// ATE figure (ate_m.rmse, .mean, .max) is negative or not finite (names the
+// file and the line).
 RunSummary ReadRunSummary(const std::filesystem::path& dir);
 
 // The sequence name under which `name` is looked up in a reference file:

@@ -12,6 +12,7 @@
 #include "common/cli.h"
 #include "common/errors.h"
 #include "common/output_path.h"
+#include "common/worker_pool.h"
 #include "stages/extract/orb_extractor.h"
 
 namespace rrslam {
@@ -86,7 +87,13 @@ struct FrameFeatures {
 
 void ExtractFrame(const RgbdFrameRef& frame, const Settings& settings, const PinholeCamera& camera,
                   OrbExtractor* extractor, FrameFeatures* out) {
-  const cv::Mat gray = LoadGrayImage(frame.rgb_path);
+  // Refused from the header when larger than the calibration (or than
+  // kMaxImageSide when the settings give no size), before it is decoded.
+  const ImageSizeLimit limit = {
+      settings.width, settings.height,
+      "Camera.width x Camera.height of " +
+          (settings.source.empty() ? std::string("the settings") : settings.source.string())};
+  const cv::Mat gray = LoadGrayImage(frame.rgb_path, limit);
   if ((settings.width > 0 && gray.cols != settings.width) ||
       (settings.height > 0 && gray.rows != settings.height)) {
     throw DataError(
@@ -96,7 +103,7 @@ void ExtractFrame(const RgbdFrameRef& frame, const Settings& settings, const Pin
         " gives Camera.width x Camera.height = " + std::to_string(settings.width) + "x" +
         std::to_string(settings.height));
   }
-  const cv::Mat depth_raw = LoadDepthImage(frame.depth_path);
+  const cv::Mat depth_raw = LoadDepthImage(frame.depth_path, limit);
   CheckSameSize(gray, depth_raw, frame.depth_path);
   cv::Mat depth_metres;
   depth_raw.convertTo(depth_metres, CV_32F, 1.0 / settings.depth_map_factor);
@@ -145,9 +152,10 @@ FeaturesFile ExtractFrames(const RgbdSequence& sequence, const Settings& setting
   if (frame_workers <= 1) {
     worker();
   } else {
-    std::vector<std::thread> pool;
-    for (int t = 0; t < frame_workers; ++t) pool.emplace_back(worker);
-    for (std::thread& t : pool) t.join();
+    // A WorkerPool, so that a thread that cannot be started is a
+    // ResourceError (exit 75), not std::terminate.
+    WorkerPool pool(frame_workers);
+    pool.ParallelFor(static_cast<size_t>(frame_workers), [&](size_t) { worker(); });
   }
   if (error) std::rethrow_exception(error);
 

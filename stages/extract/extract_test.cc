@@ -9,6 +9,7 @@
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
+#include "common/json_text.h"
 #include "common/settings.h"
 #include "common/testing.h"
 #include "stages/extract/orb_extractor.h"
@@ -207,6 +208,22 @@ TEST(RunExtract, WritesFeaturesOfEveryFrame) {
   }
 }
 
+// A sequence folder named in Latin-1 (legal on Linux, not UTF-8): the
+// features file records the options (JSON) with the path quoted
+// (common/json_text.h) instead of failing with nlohmann's type_error 316.
+TEST(RunExtract, SequenceFolderThatIsNotUtf8) {
+  const TinySequence seq(2);
+  testing::TempDir out_dir;
+  const fs::path latin1 = out_dir / "caf\xe9";
+  fs::create_directory_symlink(seq.path(), latin1);
+  ExtractOptions options = seq.Options(out_dir / "features.h5");
+  options.sequence = latin1;
+  RunExtract(options);
+  const FeaturesFile f = ReadFeaturesFile(out_dir / "features.h5");
+  EXPECT_EQ(PathFromJson(f.format.options["sequence"].get<std::string>()), latin1);
+  EXPECT_EQ(f.num_frames(), 2u);
+}
+
 TEST(RunExtract, SameContentForAnyThreadCount) {
   const TinySequence seq(5);
   testing::TempDir out_dir;
@@ -301,6 +318,46 @@ TEST_F(RunExtractBadInput, ImageSizeDiffersFromSettings) {
   const std::string message = MessageOf<DataError>([&] { RunExtract(seq.Options(out_)); });
   EXPECT_TRUE(Contains(message, seq.rgb(0))) << message;
   EXPECT_NE(message.find("640x480"), std::string::npos) << message;
+  ExpectOutputUntouched();
+}
+
+// `png` with the width and height of its IHDR chunk replaced (CRC updated):
+// a few kB declaring a huge image.
+std::string WithDeclaredSize(std::string png, uint32_t width, uint32_t height) {
+  for (int i = 0; i < 4; ++i) {
+    png[16 + i] = static_cast<char>(width >> (24 - 8 * i));
+    png[20 + i] = static_cast<char>(height >> (24 - 8 * i));
+  }
+  uint32_t crc = 0xFFFFFFFFu;  // CRC-32 of the chunk type and data.
+  for (size_t k = 12; k < 29; ++k) {
+    crc ^= static_cast<unsigned char>(png[k]);
+    for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  crc = ~crc;
+  for (int i = 0; i < 4; ++i) png[29 + i] = static_cast<char>(crc >> (24 - 8 * i));
+  return png;
+}
+
+// A PNG declaring 65535 x 65535 pixels (34 GB decoded) is refused from its
+// header, naming the file and both sizes (exit 65); so is one merely larger
+// than the settings' Camera.width x Camera.height.
+TEST_F(RunExtractBadInput, ImageDeclaringAHugeSizeIsRefusedFromItsHeader) {
+  const TinySequence seq(3);
+  const std::string png = ReadFileToString(seq.rgb(1));
+  testing::WriteTextFile(seq.rgb(1), WithDeclaredSize(png, 65535, 65535));
+  std::string message = MessageOf<DataError>([&] { RunExtract(seq.Options(out_)); });
+  EXPECT_EQ(message, seq.rgb(1).string() + ": image is 65535x65535, larger than 320x240 " +
+                         "(Camera.width x Camera.height of " + seq.settings_path().string() + ")");
+  ExpectOutputUntouched();
+  testing::WriteTextFile(seq.rgb(1), WithDeclaredSize(png, kWidth + 1, kHeight));
+  message = MessageOf<DataError>([&] { RunExtract(seq.Options(out_)); });
+  EXPECT_NE(message.find(": image is 321x240, larger than 320x240"), std::string::npos) << message;
+  const auto r =
+      testing::RunTool("extract", "--sequence " + testing::Quote(seq.path()) + " --settings " +
+                                      testing::Quote(seq.settings_path()) + " --out " +
+                                      testing::Quote(out_) + " -q");
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("321x240"), std::string::npos) << r.output;
   ExpectOutputUntouched();
 }
 

@@ -33,6 +33,22 @@ namespace rrslam {
 // "No keyframe / no map point" in an id field.
 inline constexpr uint64_t kNoId = ~uint64_t{0};
 
+// Bound on a map's next ids (CheckMapNextIds, map_file.h). A next id exceeds
+// the count of keyframes / map points by the ones its run culled, but track
+// indexes its live objects by id: loading a map allocates ~9 bytes per id up
+// to the next id (and tracking more per-id arrays of the same length), so a
+// next id of 1e8..1e19 read from a file would exhaust memory. A run that
+// created 2^24 (16.7 million) keyframes or map points held every one of them
+// in memory (track's Map keeps culled objects), so no real map comes near
+// this bound: at most kMapIdSlack ids plus kMapIdsPerObject per object kept.
+inline constexpr uint64_t kMapIdSlack = uint64_t{1} << 24;
+inline constexpr uint64_t kMapIdsPerObject = 64;
+inline constexpr uint64_t MaxNextMapId(uint64_t count) {
+  return count > (~uint64_t{0} - kMapIdSlack) / kMapIdsPerObject
+             ? ~uint64_t{0}
+             : kMapIdSlack + kMapIdsPerObject * count;
+}
+
 // The camera and ORB settings the map was built with. A map is refused when
 // loaded with other settings (track compares every field).
 struct MapCamera {
@@ -131,7 +147,8 @@ struct MapData {
   int32_t bow_levels_up = 4;               // Levels above the words of the feature vectors.
   std::vector<KeyFrameRecord> keyframes;   // Sorted by id.
   std::vector<MapPointRecord> map_points;  // Sorted by id.
-  // Ids the live map gives its next keyframe / map point (> every id above).
+  // Ids the live map gives its next keyframe / map point (> every id above,
+  // at most MaxNextMapId of the count).
   uint64_t next_keyframe_id = 0;
   uint64_t next_map_point_id = 0;
   // JSON: producer (tool, version) and the options of the run that saved it.

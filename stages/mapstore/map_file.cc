@@ -699,6 +699,13 @@ MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
   if (std::filesystem::is_directory(status)) {
     throw NoInputError(path.string() + ": is a folder, not a map file");
   }
+  {
+    // The header first, from a mapping that reads only the pages it touches:
+    // a file longer or shorter than its header says (padded to gigabytes) is
+    // refused before the pre-faulting mapping below would read all of it.
+    const MappedFile probe(path);
+    ReadMapFileInfo(probe.bytes(), path.string());
+  }
   const MappedFile file(path, /*populate=*/true);
   return ParseMap(file.bytes(), path.string(), info);
 }
@@ -750,10 +757,23 @@ bool Finite(double v) { return std::isfinite(v); }
 
 }  // namespace
 
+void CheckMapNextIds(const MapData& map, const std::string& source) {
+  const auto check = [&](const char* field, uint64_t next, uint64_t count, const char* what) {
+    if (next <= MaxNextMapId(count)) return;
+    throw DataError(source + ": section meta: " + field + " " + std::to_string(next) +
+                    " is above " + std::to_string(MaxNextMapId(count)) + ", the bound for " +
+                    std::to_string(count) + " " + what +
+                    " (2^24 + 64 each; loading allocates memory per id)");
+  };
+  check("next_keyframe_id", map.next_keyframe_id, map.keyframes.size(), "keyframes");
+  check("next_map_point_id", map.next_map_point_id, map.map_points.size(), "map points");
+}
+
 void ValidateMapData(const MapData& map, const std::string& source) {
   auto fail = [&](const std::string& what) { throw DataError(source + ": " + what); };
   const int32_t orb_levels = map.camera.orb_levels;
   const uint64_t num_words = map.vocabulary.num_words;
+  CheckMapNextIds(map, source);
 
   // Ids: unique, sorted, below the next ids.
   std::vector<uint64_t> kf_ids(map.keyframes.size()), mp_ids(map.map_points.size());

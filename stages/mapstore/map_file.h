@@ -77,7 +77,13 @@ struct MapCounts {
 MapData ParseMapMeta(std::span<const uint8_t> file, const std::string& source,
                      MapCounts* counts = nullptr);
 
-// Checks every relation listed in map_data.h, and that counts and values are
+// Throws DataError naming `source` and the field when a next id is above
+// MaxNextMapId of its count (map_data.h): what loading the map (track) would
+// allocate per id must stay in proportion to the map.
+void CheckMapNextIds(const MapData& map, const std::string& source);
+
+// Checks every relation listed in map_data.h, that the next ids are within
+// CheckMapNextIds' bound, and that counts and values are
 // sane (finite positions and poses, unit quaternions within 1e-6, octaves
 // below the camera's ORB levels, parallel arrays of equal length, feature
 // vector indices in range, word ids below the vocabulary's words). Throws

@@ -341,6 +341,50 @@ TEST(MapFile, RejectsCountsThatDoNotMatchSections) {
   ExpectParseError(bad, "section meta: strings");
 }
 
+// Next ids index arrays when track loads the map (map_data.h): one read
+// from a file is bounded by the counts before anything is allocated for it,
+// and verify (ParseMap) refuses what loading would refuse, naming the field.
+TEST(MapFile, RejectsNextIdsAboveTheBound) {
+  const MapData map = MakeTestMap(15);
+  const std::vector<uint8_t> file = EncodeMap(map);
+  const size_t meta = HeaderSize(file) + Section(file, "meta").offset;
+  const uint64_t kf_bound = MaxNextMapId(map.keyframes.size());
+  const uint64_t mp_bound = MaxNextMapId(map.map_points.size());
+  EXPECT_EQ(kf_bound, (uint64_t{1} << 24) + 64 * map.keyframes.size());
+  for (uint64_t next : {kf_bound + 1, uint64_t{100000000}, uint64_t{4600000000000000000}}) {
+    std::vector<uint8_t> bad = file;
+    StoreLittleEndian<uint64_t>(bad.data() + meta + 176, next);  // next_keyframe_id
+    Reseal(&bad);
+    ExpectParseError(bad, "map.rrm: section meta: next_keyframe_id " + std::to_string(next) +
+                              " is above " + std::to_string(kf_bound));
+    bad = file;
+    StoreLittleEndian<uint64_t>(bad.data() + meta + 184, next + mp_bound - kf_bound);
+    Reseal(&bad);
+    ExpectParseError(bad, "map.rrm: section meta: next_map_point_id ");
+  }
+  // The bound itself is a valid map.
+  std::vector<uint8_t> edge = file;
+  StoreLittleEndian<uint64_t>(edge.data() + meta + 176, kf_bound);
+  StoreLittleEndian<uint64_t>(edge.data() + meta + 184, mp_bound);
+  Reseal(&edge);
+  EXPECT_EQ(ParseMap(edge, "map.rrm").next_map_point_id, mp_bound);
+  EXPECT_EQ(MaxNextMapId(~uint64_t{0}), ~uint64_t{0});  // Saturates.
+}
+
+// A map padded far beyond the size its header gives (here 256 MB, sparse) is
+// refused from its header, before the mapping that pre-faults every page
+// reads it all (an 8 GB one made verify and --load-map touch 8 GB).
+TEST(MapFile, PaddedFileIsRefusedBeforeItsPagesAreRead) {
+  TempDir dir;
+  const std::filesystem::path path = dir / "padded.rrm";
+  WriteMapFile(path, MakeTestMap(17));
+  std::filesystem::resize_file(path, uint64_t{256} << 20);
+  if (!testing::ResetPeakResident()) GTEST_SKIP() << "cannot reset the peak resident size";
+  const long before = testing::PeakResidentKb();
+  ExpectError([&] { ReadMapFile(path); }, "padded.rrm: truncated or padded");
+  EXPECT_LT(testing::PeakResidentKb() - before, 64 * 1024) << "kB read into memory";
+}
+
 TEST(MapFile, RejectsRelationViolationInFile) {
   MapData map = MakeTestMap(16);
   map.keyframes[2].parent = 12345;

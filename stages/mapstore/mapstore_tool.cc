@@ -12,6 +12,7 @@
 #include "common/binary_header.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/json_text.h"
 #include "common/output_path.h"
 #include "stages/mapstore/map_diff.h"
 #include "stages/mapstore/map_file.h"
@@ -41,7 +42,7 @@ void RequireFile(const std::filesystem::path& path) {
 }
 
 std::string Scalar(const nlohmann::ordered_json& v) {
-  return v.is_string() ? v.get<std::string>() : v.dump();
+  return v.is_string() ? v.get<std::string>() : DumpJson(v);
 }
 
 // "key: value" lines; objects indent their members, the section table is one
@@ -234,7 +235,7 @@ std::string RunMapInfo(const MapInfoOptions& options) {
 
   std::string text;
   if (options.json) {
-    text = j.dump(2) + "\n";
+    text = DumpJson(j, 2) + "\n";
   } else {
     AppendText(j, "", &text);
   }
@@ -295,7 +296,7 @@ std::string RunMapDiff(const MapDiffOptions& options) {
                        {"removed_count", d.removed_points.size()},
                        {"added", PointsJson(d.added_points)},
                        {"removed", PointsJson(d.removed_points)}};
-    WriteFileAtomically(options.json_out, j.dump(2) + "\n");
+    WriteFileAtomically(options.json_out, DumpJson(j, 2) + "\n");
   }
   return text;
 }

@@ -6,6 +6,7 @@
 
 #include "common/atomic_file.h"
 #include "common/binary_header.h"
+#include "common/json_text.h"
 #include "common/testing.h"
 #include "stages/mapstore/map_file.h"
 #include "stages/mapstore/map_test_util.h"
@@ -117,6 +118,33 @@ TEST_F(MapstoreTool, Info) {
   EXPECT_EQ(j["sections"].size(), 10u);
   EXPECT_EQ(j["metadata"]["seed"], 31);
   EXPECT_EQ(j["camera"]["orb_levels"], 8);
+}
+
+// A map in a Latin-1 folder (legal on Linux, not UTF-8) whose metadata and
+// vocabulary name hold such bytes too: info and diff print and write them
+// (common/json_text.h) instead of failing with nlohmann's type_error 316.
+TEST_F(MapstoreTool, NamesAndMetadataThatAreNotUtf8) {
+  const std::filesystem::path dir = dir_ / "caf\xe9";
+  std::filesystem::create_directories(dir);
+  MapData map = map_;
+  map.metadata = "{\"sequence\": \"/data/caf\xe9\"}";
+  map.vocabulary.name = "voc\xe9.rrv";
+  WriteMapFile(dir / "a.rrm", map);
+  const std::string a = testing::Quote(dir / "a.rrm");
+  auto r = RunTool("mapstore", "info --json " + a + " 2>/dev/null");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(PathFromJson(j["file"].get<std::string>()), dir / "a.rrm");
+  EXPECT_EQ(UnquoteJsonString(j["metadata"].get<std::string>()), map.metadata);
+  EXPECT_EQ(UnquoteJsonString(j["vocabulary"]["name"].get<std::string>()), "voc\xe9.rrv");
+  r = RunTool("mapstore", "info " + a);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("structure: ok"), std::string::npos) << r.output;
+  r = RunTool("mapstore", "diff " + testing::Quote(dir_ / "a.rrm") + " " + a + " --json " +
+                              testing::Quote(dir / "diff.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto diff = nlohmann::json::parse(ReadFileToString(dir / "diff.json"));
+  EXPECT_EQ(PathFromJson(diff["b"].get<std::string>()), dir / "a.rrm");
 }
 
 TEST_F(MapstoreTool, InfoOnCorruptSection) {

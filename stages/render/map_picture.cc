@@ -317,9 +317,13 @@ MapPicture RenderMapPicture(const MapScene& scene, MapViewKind kind,
     const auto at = [&](double r, double f) {
       return ground.right * r + ground.forward * f + ground.up * floor;
     };
-    for (double r = r0; r <= r1 + 1e-9; r += step) segment(at(r, f0), at(r, f1), kGrid, thin);
-    for (double f = f0; f <= f1 + 1e-9; f += step) segment(at(r0, f), at(r1, f), kGrid, thin);
-    grid_note = "floor grid " + TickLabel(step, step) + " m";
+    // Bounded loops (TickValues): none where the step is below the precision
+    // of the coordinates or the extent is not finite.
+    const std::vector<double> rs = TickValues(r0 - 0.5 * step, r1 + 0.5 * step, step);
+    const std::vector<double> fs = TickValues(f0 - 0.5 * step, f1 + 0.5 * step, step);
+    for (const double r : rs) segment(at(r, f0), at(r, f1), kGrid, thin);
+    for (const double f : fs) segment(at(r0, f), at(r1, f), kGrid, thin);
+    if (!rs.empty() && !fs.empty()) grid_note = "floor grid " + TickLabel(step, step) + " m";
     for (int axis = 0; axis < 3; ++axis) {
       const Eigen::Vector3d tip = Eigen::Vector3d::Unit(axis) * (extent * 0.08);
       segment(Eigen::Vector3d::Zero(), tip, kAxisColours[axis], thick);

@@ -9,6 +9,7 @@
 #include "common/cli.h"
 #include "common/dataset.h"
 #include "common/errors.h"
+#include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/settings.h"
 #include "common/trajectory.h"
@@ -38,7 +39,7 @@ ImageMetadata Metadata(const std::string& description, const nlohmann::ordered_j
   ImageMetadata metadata;
   metadata.software = Producer("render");
   metadata.description = description;
-  metadata.attributes.emplace_back("rrslam:options", options.dump());
+  metadata.attributes.emplace_back("rrslam:options", DumpJson(options));
   return metadata;
 }
 
@@ -224,6 +225,8 @@ PlyCloud MapPointCloud(const MapScene& scene, const std::filesystem::path& seque
 
   SequenceOptions sequence_options;
   sequence_options.associations = associations;
+  sequence_options.max_image_size = {scene.camera.width, scene.camera.height,
+                                     "the camera of " + scene.source};
   const RgbdSequence sequence = RgbdSequence::Open(sequence_dir, sequence_options);
   std::vector<double> stamps;
   for (const RgbdFrameRef& frame : sequence.frames()) stamps.push_back(frame.rgb_timestamp);

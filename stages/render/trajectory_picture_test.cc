@@ -99,5 +99,21 @@ TEST(TrajectoryPicture, Errors) {
   EXPECT_THROW(RenderTrajectoryPictures({{"est", gt}}, std::nullopt, options), UsageError);
 }
 
+// Found in review (issue 36): positions near 1e20 hung `rrslam-render
+// trajectory` in the grid loop (a step below their precision). Such an axis
+// now gets no grid, and the pictures are drawn.
+TEST(TrajectoryPicture, CoordinatesNear1e20DrawWithoutHanging) {
+  for (const double offset : {1e20, 1e300}) {
+    Trajectory far = Circle();
+    for (StampedPose& p : far) p.T_world_cam.translation += Eigen::Vector3d(offset, offset, 0);
+    const TrajectoryPictures pictures = RenderTrajectoryPictures({{"far", far}}, std::nullopt, {});
+    EXPECT_FALSE(pictures.top.empty()) << offset;
+    EXPECT_TRUE(pictures.error.empty()) << offset;
+    const TrajectoryPictures with_gt =
+        RenderTrajectoryPictures({{"far", far}}, NamedTrajectory{"gt", far}, {});
+    EXPECT_FALSE(with_gt.error.empty()) << offset;
+  }
+}
+
 }  // namespace
 }  // namespace rrslam

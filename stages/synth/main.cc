@@ -8,7 +8,10 @@
 namespace {
 
 void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
-  app.add_option("--out", o->out, "Output sequence folder (written atomically)")->required();
+  app.add_option("--out", o->out,
+                 "Output sequence folder (written atomically); an existing one is replaced only "
+                 "when empty or an earlier rrslam-synth output (else exit 73, nothing touched)")
+      ->required();
   app.add_option_function<std::string>(
          "--trajectory",
          [o](const std::string& name) { rrslam::synth::ParseTrajectoryKind(name, &o->trajectory); },

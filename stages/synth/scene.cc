@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "common/worker_pool.h"
 #include "stages/synth/random.h"
 
 namespace rrslam::synth {
@@ -101,10 +102,9 @@ Scene::Scene(const std::vector<Box>& boxes, const SceneOptions& options)
     }
   };
   const int threads = std::max(1, options_.num_threads);
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  // A thread that cannot be started is a ResourceError (WorkerPool).
+  WorkerPool pool(threads);
+  pool.ParallelFor(static_cast<size_t>(threads), [&](size_t) { worker(); });
 }
 
 Scene Scene::StandardRoom(const SceneOptions& options) {

@@ -18,7 +18,9 @@
 #include "common/cli.h"
 #include "common/errors.h"
 #include "common/image_io.h"
+#include "common/json_text.h"
 #include "common/progress.h"
+#include "common/worker_pool.h"
 #include "stages/synth/renderer.h"
 #include "stages/synth/scene.h"
 #include "stages/synth/sensor.h"
@@ -189,11 +191,11 @@ Settings SynthOptions::MakeSettings() const {
   settings.rgb_order = true;
   settings.th_depth = 40.0;
   settings.depth_map_factor = kDepthMapFactor;
-  // Depth noise k z^2 metres is bf * k pixels of disparity bf / z at any
-  // depth. Reading the depth at a keypoint's nearest pixel adds an error of
-  // its own (slanted surfaces, depth edges); kDepthSamplingSigma covers it
-  // (docs/track.md, "Depth weighting").
-  settings.depth_disparity_sigma = std::hypot(settings.bf * depth_noise, kDepthSamplingSigma);
+  // The sensor's depth noise, k z^2 metres, as the quadratic model that
+  // tracking weighs depth by. Reading the depth at a keypoint's nearest pixel
+  // adds an error of its own (slanted surfaces, depth edges);
+  // kDepthSamplingSigma covers it (docs/track.md, "Depth weighting").
+  settings.depth_noise = {DepthNoise::Model::kQuadratic, depth_noise, kDepthSamplingSigma};
   return settings;
 }
 
@@ -219,7 +221,7 @@ std::string SynthOptions::ToJson() const {
   j["seed"] = seed;
   j["texel_size"] = texel_size;
   j["scene_change"] = scene_change;
-  return j.dump();
+  return DumpJson(j);
 }
 
 std::string FormatTimestamp(double seconds) {
@@ -330,7 +332,14 @@ void RunSynth(const SynthOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError("invalid option: " + why);
   if (options.out.empty()) throw UsageError("invalid option: --out is required");
-  AtomicOutput output(options.out, AtomicOutput::Kind::kDirectory);
+  // An existing --out is replaced only when it is empty or an earlier
+  // rrslam-synth output (common/atomic_file.h): the files written below.
+  AtomicOutput output(options.out, AtomicOutput::Kind::kDirectory,
+                      {.tool = "rrslam-synth",
+                       .files = {"rgb.txt", "depth.txt", "associations.txt", "groundtruth.txt",
+                                 "settings.yaml", "synth.json"},
+                       .folders = {{"rgb", R"(\d+\.\d{6}\.png)"}, {"depth", R"(\d+\.\d{6}\.png)"}},
+                       .record = "synth.json"});
   const fs::path dir = output.temp_path();
 
   const auto start = std::chrono::steady_clock::now();
@@ -371,10 +380,9 @@ void RunSynth(const SynthOptions& options) {
       failed = true;
     }
   };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  // A thread that cannot be started is a ResourceError (WorkerPool).
+  WorkerPool pool(threads);
+  pool.ParallelFor(static_cast<size_t>(std::max(threads, 1)), [&](size_t) { worker(); });
   progress.Finish();
   if (error) std::rethrow_exception(error);
 
@@ -412,7 +420,7 @@ void RunSynth(const SynthOptions& options) {
   synth::SceneChange change = synth::SceneChange::kNone;
   synth::ParseSceneChange(options.scene_change, &change);
   info["scene_change"] = SceneChangeJson(synth::DescribeSceneChange(change));
-  WriteText(dir / "synth.json", info.dump(2) + "\n");
+  WriteText(dir / "synth.json", DumpJson(info, 2) + "\n");
 
   output.Commit();
   const double seconds =

@@ -1,7 +1,9 @@
 // rrslam-synth: renders a TUM-layout RGB-D sequence of a textured room with
 // exact ground truth (see docs/synth.md).
 //
-// Output folder (written atomically: OUT.XXXXXX.tmp, then renamed to OUT):
+// Output folder (written atomically: OUT.XXXXXX.tmp, then renamed to OUT; an
+// existing OUT is replaced only when it is empty or an earlier rrslam-synth
+// output, see common/atomic_file.h):
 //   rgb/<timestamp>.png     8-bit colour (BGR in memory, RGB PNG)
 //   depth/<timestamp>.png   16-bit depth, 5000 units per metre, 0 = no depth
 //   rgb.txt, depth.txt      `timestamp path` lists with 3 '#' header lines
@@ -9,6 +11,7 @@
 //   groundtruth.txt         TUM trajectory of T_world_cam at the frame timestamps
 //   settings.yaml           ORB-SLAM2 RGB-D settings matching the rendering
 //   synth.json              producer, options and scene summary
+//   .rrslam-output          marker: "rrslam-synth", this tool's folder
 // Timestamps are i / fps seconds (i = 0, 1, ...), printed with 6 decimals.
 //
 // Building blocks for tests and other stages live in namespace rrslam::synth:
@@ -39,7 +42,8 @@ class Renderer;
 // Options of rrslam-synth. Every field has a default; Check() validates all of
 // them (except `out`, which only RunSynth needs).
 struct SynthOptions {
-  // Output sequence folder; its parent must exist. Replaced as a whole if it exists.
+  // Output sequence folder; its parent must exist. An existing folder is
+  // replaced as a whole only when it is empty or an earlier rrslam-synth output.
   std::filesystem::path out;
   // Camera path: loop, sweep, rotation or shake (camera_path.h). Sets the
   // default of motion_blur.
@@ -181,7 +185,8 @@ std::string FormatTimestamp(double seconds);
 
 // Renders the sequence and writes the output folder (see the top of this
 // file). Throws UsageError for invalid options (exit 64) and CantCreateError
-// when the output cannot be written (exit 73); on error nothing is left under
+// when the output cannot be written or options.out holds files rrslam-synth
+// did not write (exit 73, before rendering); on error nothing is left under
 // options.out (an existing folder there is kept unchanged).
 void RunSynth(const SynthOptions& options);
 

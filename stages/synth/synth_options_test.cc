@@ -146,9 +146,11 @@ TEST(SynthOptions, SettingsMatchTheRendering) {
   EXPECT_DOUBLE_EQ(s.fps, 30.0);
   // Disparity noise: bf * k of the Kinect model (0.057 px) with the 0.1 px
   // of reading depth at a keypoint.
-  EXPECT_NEAR(s.depth_disparity_sigma, std::hypot(40.0 * 1.425e-3, 0.1), 1e-12);
+  EXPECT_EQ(s.depth_noise.model, DepthNoise::Model::kQuadratic);
+  EXPECT_DOUBLE_EQ(s.depth_noise.k2, 1.425e-3);
+  EXPECT_NEAR(s.depth_noise.DisparitySigma(s.bf), std::hypot(40.0 * 1.425e-3, 0.1), 1e-12);
   o.depth_noise = 0;
-  EXPECT_DOUBLE_EQ(o.MakeSettings().depth_disparity_sigma, 0.1);
+  EXPECT_DOUBLE_EQ(o.MakeSettings().depth_noise.DisparitySigma(40.0), 0.1);
   o.depth_noise = 1.425e-3;
   EXPECT_TRUE(s.distortion.IsZero());
   EXPECT_EQ(s.orb.n_features, 1000);
@@ -189,8 +191,7 @@ TEST(SynthOptions, DepthScaleError) {
   EXPECT_NE(o.ToJson().find("\"depth_scale_error\":0.01"), std::string::npos) << o.ToJson();
   // The sensor's bias is not known to the settings: they stay those of E = 0.
   EXPECT_DOUBLE_EQ(o.MakeSettings().depth_map_factor, 5000.0);
-  EXPECT_DOUBLE_EQ(o.MakeSettings().depth_disparity_sigma,
-                   SynthOptions().MakeSettings().depth_disparity_sigma);
+  EXPECT_DOUBLE_EQ(o.MakeSettings().depth_noise.k2, SynthOptions().MakeSettings().depth_noise.k2);
   // Out of range: one line naming the option and its value.
   o.depth_scale_error = 0.6;
   EXPECT_FALSE(o.Check(&why));

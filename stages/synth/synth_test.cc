@@ -216,7 +216,7 @@ std::map<std::string, std::string> RenderTwiceWithOtherThreads(SynthOptions o,
   o.threads = 1;
   RunSynth(o);
   const auto a = Contents(dir / "a"), b = Contents(dir / "b");
-  EXPECT_EQ(a.size(), 2u * 5u + 6u);
+  EXPECT_EQ(a.size(), 2u * 5u + 7u);  // Images, lists, settings, synth.json, .rrslam-output.
   EXPECT_TRUE(a == b);
   return a;
 }
@@ -347,7 +347,8 @@ TEST(RunSynth, ReplacesAnExistingSequenceOnlyWhenDone) {
   EXPECT_TRUE(Contents(dir / "seq") == before);
   o.frames = 3;
   RunSynth(o);
-  EXPECT_EQ(Contents(dir / "seq").size(), 2u * 3u + 6u);
+  EXPECT_EQ(Contents(dir / "seq").size(), 2u * 3u + 7u);
+  EXPECT_EQ(Contents(dir / "seq").at(".rrslam-output"), "rrslam-synth\n");
   EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
 }
 
@@ -579,6 +580,36 @@ TEST_F(SynthTool, UnwritableOutputExits73AndLeavesNothing) {
   for (const auto& entry : fs::directory_iterator(dir_.path()))
     left.push_back(entry.path().filename());
   EXPECT_EQ(left, std::vector<std::string>{"file"});
+}
+
+// Issue 36: --out is replaced only when it is empty or an earlier output of
+// rrslam-synth; a folder holding anything else is refused and kept.
+TEST_F(SynthTool, RefusesAFolderWithOtherFilesAndReplacesItsOwnOutput) {
+  const fs::path seq = dir_ / "seq";
+  fs::create_directories(seq);
+  testing::WriteTextFile(seq / "notes.txt", "keep\n");
+  auto result = testing::RunTool("synth", "--out " + seq.string() + small_);
+  EXPECT_EQ(result.exit_code, 73) << result.output;
+  EXPECT_NE(
+      result.output.find(seq.string() + ": holds files rrslam-synth did not write (notes.txt)"),
+      std::string::npos)
+      << result.output;
+  EXPECT_EQ(ReadFileToString(seq / "notes.txt"), "keep\n");
+  EXPECT_FALSE(fs::exists(seq / "rgb.txt"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir_), std::vector<std::string>{});
+
+  fs::remove(seq / "notes.txt");
+  ASSERT_EQ(testing::RunTool("synth", "--out " + seq.string() + small_).exit_code, 0);
+  result = testing::RunTool("synth", "--out " + seq.string() + small_ + " --seed 2");
+  ASSERT_EQ(result.exit_code, 0) << result.output;  // Its own output: replaced.
+  EXPECT_EQ(nlohmann::json::parse(ReadFileToString(seq / "synth.json"))["options"]["seed"], 2);
+
+  // A file of someone else's among its images makes the folder foreign too.
+  testing::WriteTextFile(seq / "rgb" / "mine.png", "x");
+  result = testing::RunTool("synth", "--out " + seq.string() + small_);
+  EXPECT_EQ(result.exit_code, 73) << result.output;
+  EXPECT_NE(result.output.find("(rgb/mine.png)"), std::string::npos) << result.output;
+  EXPECT_EQ(ReadFileToString(seq / "rgb" / "mine.png"), "x");
 }
 
 TEST_F(SynthTool, HelpListsEveryFlagWithItsDefault) {

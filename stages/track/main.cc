@@ -11,8 +11,9 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
                  "Vocabulary: rrslam binary (.rrv) or DBoW2 text (ORBvoc.txt)")
       ->required();
   app.add_option("--out", o->out,
-                 "Output folder (CameraTrajectory.txt, KeyFrameTrajectory.txt, run.json); "
-                 "replaced as a whole")
+                 "Output folder (CameraTrajectory.txt, KeyFrameTrajectory.txt, run.json); an "
+                 "existing one is replaced as a whole only when empty or an earlier "
+                 "rrslam-track output (else exit 73, nothing touched)")
       ->required();
   app.add_option("--features", o->features,
                  "Features file from rrslam-extract to use instead of extracting (its frames "
@@ -31,12 +32,21 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
   app.add_flag("--pace", o->pace,
                "Realtime mode: deliver frames no faster than their timestamps, as a live "
                "camera");
+  app.add_option("--max-pace-gap", o->max_pace_gap,
+                 "With --pace: a gap between frame timestamps longer than this many seconds is "
+                 "paced as this long (a warning at start names the largest)")
+      ->capture_default_str();
   app.add_option("--extraction-threads", o->extraction_threads,
                  "Threads of the ORB extractor (does not change the result)")
       ->capture_default_str();
   app.add_flag_callback(
       "--no-loop-closing", [o] { o->loop_closing = false; },
       "Turn loop closing (and its global bundle adjustment) off");
+  app.add_flag("--refine-map,!--no-refine-map", o->refine_map,
+               "After the last frame, refine every keyframe and map point by a bundle "
+               "adjustment run to convergence, before the trajectories and the map are written "
+               "(default: off; not with --localization-only; ORB-SLAM2 has no such step)")
+      ->capture_default_str();
   // Offline maps.
   app.add_option("--save-map", o->save_map,
                  "Write the final map (rrslam.map: keyframes, map points, graphs, bags of "
@@ -66,11 +76,16 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
       ->capture_default_str();
   // Departures from ORB-SLAM2; docs/track.md gives the measurements.
   app.add_option("--close-tracked", o->close_tracked,
-                 "Keyframe when fewer close points are tracked (ORB-SLAM2: 100)")
+                 "Keyframe when fewer close points are tracked (ORB-SLAM2: 100; the default "
+                 "follows the rule for defaults, docs/track.md)")
       ->capture_default_str();
-  app.add_flag("--ba-depth-fallback", o->ba_depth_fallback,
-               "Local BA keeps an observation whose depth disagrees as (u, v) (ORB-SLAM2 "
-               "removes it)");
+  app.add_option("--restore-close-tracked", o->restore_close_tracked,
+                 "The same when mapping on a --load-map map (restore mapping; ORB-SLAM2: 100)")
+      ->capture_default_str();
+  app.add_flag("--ba-depth-fallback,!--no-ba-depth-fallback", o->ba_depth_fallback,
+               "Local BA keeps an observation whose depth disagrees as (u, v) (default: on); "
+               "--no-ba-depth-fallback removes it, as ORB-SLAM2")
+      ->capture_default_str();
   app.add_flag("--small-vocab-groups", o->small_vocab_groups,
                "Vocabularies of < 6 levels group BoW candidates at depth 2 (ORB-SLAM2: 4 "
                "levels above the words)");

@@ -22,6 +22,7 @@
 #include "common/dataset.h"
 #include "common/errors.h"
 #include "common/heap_reserve.h"
+#include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/progress.h"
 #include "common/settings.h"
@@ -38,6 +39,7 @@
 #include "stages/track/module/local_mapper.h"
 #include "stages/track/module/loop_closer.h"
 #include "stages/track/module/tracker.h"
+#include "stages/track/optimize/map_refinement.h"
 #include "stages/track/optimize/optimizer.h"
 #include "stages/track/run_report.h"
 #include "stages/vocab/vocabulary.h"
@@ -247,6 +249,14 @@ bool TrackOptions::Check(std::string* why) const {
   if (close_tracked < 0) {
     return fail("--close-tracked = " + std::to_string(close_tracked) + "; must be >= 0");
   }
+  if (restore_close_tracked < 0) {
+    return fail("--restore-close-tracked = " + std::to_string(restore_close_tracked) +
+                "; must be >= 0");
+  }
+  if (!(std::isfinite(max_pace_gap) && max_pace_gap > 0)) {
+    return fail("--max-pace-gap = " + fmt::format("{}", max_pace_gap) +
+                "; must be a finite number of seconds > 0");
+  }
   if (extraction_threads < 1 || extraction_threads > 16) {
     return fail("--extraction-threads = " + std::to_string(extraction_threads) +
                 "; must be in [1, 16]");
@@ -282,12 +292,15 @@ nlohmann::json TrackOptions::ToJson() const {
           {"mode", mode},
           {"max_frames", max_frames},
           {"pace", pace},
+          {"max_pace_gap", max_pace_gap},
           {"extraction_threads", extraction_threads},
           {"close_tracked", close_tracked},
+          {"restore_close_tracked", restore_close_tracked},
           {"ba_depth_fallback", ba_depth_fallback},
           {"small_vocab_groups", small_vocab_groups},
           {"expand_all_local_keyframes", expand_all_local_keyframes},
           {"loop_closing", loop_closing},
+          {"refine_map", refine_map},
           {"save_map", save_map.string()},
           {"load_map", load_map.string()},
           {"first_frame", first_frame},
@@ -308,6 +321,10 @@ TrackSummary RunTrack(const TrackOptions& options) {
   const Settings settings = ReadSettings(options.settings);
   SequenceOptions sequence_options;
   sequence_options.associations = options.associations;
+  // An image larger than the calibration's is refused from its header.
+  sequence_options.max_image_size = {
+      settings.width, settings.height,
+      "Camera.width x Camera.height of " + options.settings.string()};
   const RgbdSequence sequence = RgbdSequence::Open(options.sequence, sequence_options);
   std::vector<size_t> frames;
   FeaturesFile features;
@@ -354,7 +371,13 @@ TrackSummary RunTrack(const TrackOptions& options) {
   }
   const SensorModel sensor(settings, width, height);
 
-  AtomicOutput output(options.out, AtomicOutput::Kind::kDirectory);
+  // An existing --out is replaced only when it is empty or an earlier
+  // rrslam-track output (common/atomic_file.h); checked here, before tracking.
+  AtomicOutput output(options.out, AtomicOutput::Kind::kDirectory,
+                      {.tool = "rrslam-track",
+                       .files = {"CameraTrajectory.txt", "KeyFrameTrajectory.txt", "run.json"},
+                       .folders = {},
+                       .record = "run.json"});
   // Reserved now, so a --save-map that cannot be written fails before tracking.
   std::optional<AtomicOutput> map_output;
   if (!options.save_map.empty()) map_output.emplace(options.save_map);
@@ -368,7 +391,8 @@ TrackSummary RunTrack(const TrackOptions& options) {
   const int bow_levels_up = FeatureVectorLevelsUp(vocabulary.levels(), options.small_vocab_groups);
   TrackerOptions tracker_options;
   tracker_options.max_keyframe_gap = std::max(1, static_cast<int>(std::lround(settings.fps)));
-  tracker_options.close_tracked = options.close_tracked;
+  tracker_options.close_tracked =
+      options.load_map.empty() ? options.close_tracked : options.restore_close_tracked;
   tracker_options.expand_all_local_keyframes = options.expand_all_local_keyframes;
   tracker_options.bow_levels_up = bow_levels_up;
   LocalMapperOptions mapper_options;
@@ -430,7 +454,9 @@ TrackSummary RunTrack(const TrackOptions& options) {
   tracking_ms.reserve(frames.size());
   ProgressBar progress("track", frames.size(), "frame");
   const auto loop_start = SteadyClock::now();
-  const double first_timestamp = sequence.frame(frames.front()).rgb_timestamp;
+  // --pace: seconds of the sequence delivered so far (gaps capped at
+  // --max-pace-gap), and the previous frame's timestamp.
+  double paced_s = 0, previous_timestamp = sequence.frame(frames.front()).rgb_timestamp;
   for (size_t k = 0; k < frames.size(); ++k) {
     const size_t index = frames[k];
     const double timestamp = sequence.frame(index).rgb_timestamp;
@@ -449,9 +475,34 @@ TrackSummary RunTrack(const TrackOptions& options) {
       depth = std::move(images.depth_metres);
     }
     if (realtime && options.pace) {
-      std::this_thread::sleep_until(
-          loop_start + std::chrono::duration_cast<SteadyClock::duration>(
-                           std::chrono::duration<double>(timestamp - first_timestamp)));
+      if (k == 0) {
+        // Say at start when a gap will be cut short, naming the largest.
+        double largest = 0;
+        size_t after = 0;
+        for (size_t j = 1; j < frames.size(); ++j) {
+          const double gap =
+              sequence.frame(frames[j]).rgb_timestamp - sequence.frame(frames[j - 1]).rgb_timestamp;
+          if (gap > largest) {
+            largest = gap;
+            after = j;
+          }
+        }
+        if (largest > options.max_pace_gap) {
+          spdlog::warn(
+              "track: --pace: the timestamps jump {:.3f} s from frame {} ({:.6f}) to frame {} "
+              "({:.6f}); gaps longer than --max-pace-gap = {} s are paced as {} s",
+              largest, frames[after - 1], sequence.frame(frames[after - 1]).rgb_timestamp,
+              frames[after], sequence.frame(frames[after]).rgb_timestamp, options.max_pace_gap,
+              options.max_pace_gap);
+        }
+      }
+      // A gap longer than --max-pace-gap is not slept through (a pause in
+      // the recording, sequences glued together): it counts as that long.
+      const double gap = timestamp - previous_timestamp;
+      paced_s += gap > options.max_pace_gap ? options.max_pace_gap : (gap > 0 ? gap : 0);
+      previous_timestamp = timestamp;
+      std::this_thread::sleep_until(loop_start + std::chrono::duration_cast<SteadyClock::duration>(
+                                                     std::chrono::duration<double>(paced_s)));
     }
 
     const auto start = SteadyClock::now();
@@ -513,6 +564,19 @@ TrackSummary RunTrack(const TrackOptions& options) {
                          " frames tried; is it a map of this place?)");
   }
 
+  MapRefinementStats refinement;
+  if (options.refine_map && mapping) {
+    std::lock_guard<std::mutex> lock(map.mutex());
+    MapRefinementOptions refine_options;
+    refine_options.depth_fallback = options.ba_depth_fallback;
+    refinement = RefineMap(sensor, &map, refine_options);
+    spdlog::info(
+        "track: map refined in {:.0f} ms: {} keyframes, {} points, {} outlier "
+        "observations erased, {} steps",
+        refinement.ms, refinement.keyframes, refinement.points, refinement.outliers,
+        refinement.solves.successful_steps);
+  }
+
   // Outputs.
   summary.frames = frames.size();
   for (const TrackedFrame& r : tracker.records()) {
@@ -558,7 +622,7 @@ TrackSummary RunTrack(const TrackOptions& options) {
                                 {"next_map_point_id", loaded.next_map_point_id}};
     }
     const MapData data = ToMapData(map, camera, vocabulary, options.vocabulary.filename().string(),
-                                   bow_levels_up, metadata.dump());
+                                   bow_levels_up, DumpJson(metadata));
     ValidateMapData(data, options.save_map.string() + " (before saving)");
     const std::vector<uint8_t> bytes = EncodeMap(data);
     {
@@ -635,7 +699,17 @@ TrackSummary RunTrack(const TrackOptions& options) {
   report["optimization"] = {{"pose", solves_json(tracker.pose_solves())},
                             {"local_ba", solves_json(counters.bundle_adjustment_solves)},
                             {"essential_graph", solves_json(loops.essential_graph)},
-                            {"global_ba", solves_json(loops.global_ba)}};
+                            {"global_ba", solves_json(loops.global_ba)},
+                            {"refinement",
+                             {{"enabled", options.refine_map && mapping},
+                              {"keyframes", refinement.keyframes},
+                              {"points", refinement.points},
+                              {"observations", refinement.observations},
+                              {"outliers_erased", refinement.outliers},
+                              {"initial_cost", refinement.initial_cost},
+                              {"final_cost", refinement.final_cost},
+                              {"ms", refinement.ms},
+                              {"solves", solves_json(refinement.solves)}}}};
   report["timings"] = {
       {"tracking", ToJson(tracking)},
       {"extraction", ToJson(SummarizeTimings(extraction_ms))},
@@ -681,7 +755,7 @@ TrackSummary RunTrack(const TrackOptions& options) {
                      {"file_bytes", map_file_bytes}};
   }
   report["peak_rss_mb"] = PeakRssMegabytes();
-  write("run.json", report.dump(2) + "\n");
+  write("run.json", DumpJson(report, 2) + "\n");
   output.Commit();
 
   if (summary.lost > 0) {

@@ -3,12 +3,16 @@
 // and a run report.
 //
 // Outputs, in the folder --out (written as a whole: a temporary folder
-// renamed at the end, so a failed run leaves no partial trajectory):
+// renamed at the end, so a failed run leaves no partial trajectory; an
+// existing --out is replaced only when it is empty or an earlier rrslam-track
+// output, otherwise the run stops before tracking with CantCreateError, exit
+// 73, and leaves it as it is; common/atomic_file.h):
 //   CameraTrajectory.txt    pose of every tracked frame (TUM format)
 //   KeyFrameTrajectory.txt  pose of every keyframe in the final map (TUM format)
 //   run.json                counts, lost frames, vocabulary identity, options,
 //                           producer, timings, start-up and map figures
 //                           (see docs/track.md)
+//   .rrslam-output          marker: "rrslam-track", this tool's folder
 // and, with --save-map, the map file (rrslam.map, stages/mapstore).
 #pragma once
 
@@ -27,7 +31,10 @@ struct TrackOptions {
   std::filesystem::path settings;
   // Vocabulary: rrslam binary (.rrv) or DBoW2 text (ORBvoc.txt). Required.
   std::filesystem::path vocabulary;
-  // Output folder; replaced as a whole when it exists. Required.
+  // Output folder. Required. An existing folder is replaced as a whole only
+  // when it is empty or an earlier rrslam-track output (its marker, or just
+  // the files above with run.json); anything else (the user's notes, the
+  // working folder) is refused with CantCreateError (exit 73), untouched.
   std::filesystem::path out;
   // Features file from rrslam-extract (optional). When given, keypoints and
   // descriptors come from it instead of the images; its frames must be
@@ -44,18 +51,31 @@ struct TrackOptions {
   // Realtime mode only: hand frames to the tracker no faster than their
   // timestamps (as a live camera would); batch mode ignores it.
   bool pace = false;
+  // With `pace`: the longest wait for one gap between frame timestamps, in
+  // seconds (finite, > 0). A longer gap (a pause in the recording, sequences
+  // glued together) is paced as if it were this long, not slept through.
+  double max_pace_gap = 1.0;
   // Threads of the ORB extractor (pyramid levels in parallel); in [1, 16].
   // Does not change the result.
   int extraction_threads = 1;
 
-  // Departures from ORB-SLAM2 (docs/track.md, "Departures from ORB-SLAM2",
-  // has the measurements behind each default). Defaults are ORB-SLAM2's.
+  // Departures from ORB-SLAM2. A departure is the default when the rule for
+  // defaults says so (docs/track.md, "Departures from ORB-SLAM2", has the
+  // rule and the measurements behind each default); ORB-SLAM2's behaviour
+  // stays available through each option.
   // A keyframe is needed when fewer than this many close points are tracked
-  // (and more than 70 could be created). ORB-SLAM2: 100.
-  int close_tracked = 100;
-  // Local BA keeps an observation whose depth disagrees but whose (u, v)
-  // agrees as a (u, v) observation (ORB-SLAM2 removes it).
-  bool ba_depth_fallback = false;
+  // (and more than 70 could be created). ORB-SLAM2: 100. Default 300: denser
+  // keyframes (lower score under the rule).
+  int close_tracked = 300;
+  // The same threshold when mapping on a loaded map (restore mapping, with
+  // --load-map). ORB-SLAM2's 100: on the synthetic changed room, 300 there
+  // culled 9 of the 18 loaded keyframes, added 16 and doubled the loaded
+  // points removed (docs/track.md, "Departures from ORB-SLAM2").
+  int restore_close_tracked = 100;
+  // Local BA (and the final refinement) keep an observation whose depth
+  // disagrees but whose (u, v) agrees as a (u, v) observation. ORB-SLAM2
+  // (false) removes it. Default true (lower score under the rule).
+  bool ba_depth_fallback = true;
   // Vocabularies of fewer than 6 levels group BoW search candidates at depth
   // min(2, L - 1) (ORB-SLAM2: 4 levels above the words).
   bool small_vocab_groups = false;
@@ -66,6 +86,12 @@ struct TrackOptions {
   // Loop closing (ORB-SLAM2's LoopClosing, with global bundle adjustment
   // after each loop); off: tracking and local mapping only.
   bool loop_closing = true;
+  // After the last frame, refine every keyframe and map point by a bundle
+  // adjustment run to convergence (optimize/map_refinement.h) before the
+  // trajectories and the map are written; every frame keeps its pose
+  // relative to its reference keyframe. Not with --localization-only (the
+  // map is not changed there). ORB-SLAM2 has no such step.
+  bool refine_map = false;
 
   // Offline maps (docs/mapstore.md).
   // Map file (rrslam.map) written at the end of the run, after the last

@@ -2,6 +2,7 @@
 // and no output left behind.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -173,14 +174,42 @@ TEST_F(TrackToolTest, LoopClosingIsOnByDefaultAndCanBeTurnedOff) {
 }
 
 TEST_F(TrackToolTest, FailureKeepsAnExistingOutputFolder) {
+  // An output of an older rrslam-track (no .rrslam-output marker): its
+  // files, with run.json naming the tool.
   fs::create_directories(out());
   WriteTextFile(out() / "CameraTrajectory.txt", "previous\n");
+  WriteTextFile(out() / "run.json", "{\"producer\": \"rrslam-track 0.1\"}\n");
   WriteSequence(dir_ / "nodepth", 3, 0);
   EXPECT_EQ(Track((dir_ / "nodepth").string(), SettingsFile(), Voc()).exit_code, 75);
   std::ifstream in(out() / "CameraTrajectory.txt");
   std::string line;
   std::getline(in, line);
   EXPECT_EQ(line, "previous");
+}
+
+// Issue 36: --out is replaced only when it is empty or an earlier output of
+// rrslam-track; a folder holding anything else is refused before tracking.
+TEST_F(TrackToolTest, OutputFolderWithOtherFilesIsRefusedAndKept) {
+  fs::create_directories(out() / "older");
+  WriteTextFile(out() / "notes.txt", "my notes\n");
+  WriteTextFile(out() / "older" / "run.json", "{}\n");
+  auto r = Track(Seq(), SettingsFile(), Voc());
+  EXPECT_EQ(r.exit_code, 73) << r.output;
+  EXPECT_NE(r.output.find(out().string() + ": holds files rrslam-track did not write (notes.txt)"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(ReadFileToString(out() / "notes.txt"), "my notes\n");
+  EXPECT_EQ(ReadFileToString(out() / "older" / "run.json"), "{}\n");
+  EXPECT_FALSE(fs::exists(out() / "run.json"));
+  EXPECT_EQ(testing::TemporaryLeftovers(dir_), std::vector<std::string>{});
+
+  // Emptied, it is replaced; a rerun replaces the run's own output.
+  fs::remove(out() / "notes.txt");
+  fs::remove_all(out() / "older");
+  ASSERT_EQ(Track(Seq(), SettingsFile(), Voc()).exit_code, 0);
+  r = Track(Seq(), SettingsFile(), Voc());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out() / "run.json"));
 }
 
 TEST_F(TrackToolTest, FeaturesFileMustMatchSequenceAndSettings) {
@@ -225,6 +254,81 @@ TEST_F(TrackToolTest, FeaturesFileMustMatchSequenceAndSettings) {
   write_features(dir_ / "good.h5", yaml, rgb0);
   r = Track(Seq(), SettingsFile(), Voc(), "--features " + (dir_ / "good.h5").string());
   EXPECT_EQ(r.exit_code, 75) << r.output;
+}
+
+// Issue 36: folder names in Latin-1 (legal on Linux, not UTF-8) made run.json
+// and the saved map's metadata fail with nlohmann's type_error 316 (exit 70).
+// They are written quoted (common/json_text.h) and the run succeeds; the map
+// saved there loads again and `rrslam-mapstore info --json` shows it.
+TEST_F(TrackToolTest, FolderNamesThatAreNotUtf8) {
+  const fs::path dir = dir_ / "caf\xe9";
+  WriteSequence(dir / "seq", 3, 10000);
+  const std::string common = "--sequence " + testing::Quote(dir / "seq") + " --settings " +
+                             testing::Quote(dir / "seq" / "settings.yaml") + " --vocab " +
+                             testing::Quote(dir_ / "voc.txt") + " -q";
+  auto r = RunTool("track", common + " --out " + testing::Quote(dir / "out") + " --save-map " +
+                                testing::Quote(dir / "m.rrm"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string run_json = ReadFileToString(dir / "out" / "run.json");
+  EXPECT_TRUE(nlohmann::json::parse(run_json, nullptr, false).is_object());
+  EXPECT_NE(run_json.find("caf\\\\351"), std::string::npos) << run_json;
+  r = RunTool("track", common + " --out " + testing::Quote(dir / "out2") + " --load-map " +
+                           testing::Quote(dir / "m.rrm"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  r = RunTool("mapstore", "info --json " + testing::Quote(dir / "m.rrm") + " 2>/dev/null");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(nlohmann::json::parse(r.output)["metadata"].is_object()) << r.output;
+}
+
+// Issue 36: images larger than the settings' Camera.width x Camera.height
+// were tracked with the wrong calibration; they are refused from the image
+// header (exit 65, naming the file and both sizes).
+TEST_F(TrackToolTest, ImagesLargerThanTheSettingsExit65) {
+  Settings small = testing::TestSettings();
+  small.width = 320;
+  small.height = 240;
+  WriteSettings(dir_ / "small.yaml", small);
+  const auto r = Track(Seq(), (dir_ / "small.yaml").string(), Voc());
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("0.png: image is 640x480, larger than 320x240 (Camera.width x "
+                          "Camera.height of " +
+                          (dir_ / "small.yaml").string() + ")"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(out()));
+}
+
+// Found in review (issue 36): `--mode realtime --pace` slept through a
+// 1000 s gap in the timestamps. A gap longer than --max-pace-gap (1 s by
+// default) is now paced as that long, and a warning at start names the
+// largest gap and where it is.
+TEST_F(TrackToolTest, PaceCapsLongGapsBetweenTimestamps) {
+  WriteSequence(dir_ / "gap", 3, 10000);
+  for (const char* list : {"rgb", "depth"}) {
+    const std::string folder = list;
+    WriteTextFile(dir_ / "gap" / (folder + ".txt"), "# timestamp filename\n100 " + folder +
+                                                        "/0.png\n100.05 " + folder +
+                                                        "/1.png\n1100.05 " + folder + "/2.png\n");
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const auto r = Track((dir_ / "gap").string(), SettingsFile(), Voc(), "--mode realtime --pace");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_LT(seconds, 30);
+  EXPECT_NE(r.output.find("the timestamps jump 1000.000 s from frame 1 (100.050000) to frame 2 "
+                          "(1100.050000); gaps longer than --max-pace-gap = 1 s are paced as 1 s"),
+            std::string::npos)
+      << r.output;
+  const nlohmann::json run = nlohmann::json::parse(ReadFileToString(out() / "run.json"));
+  EXPECT_EQ(run.at("options").at("max_pace_gap").get<double>(), 1.0);
+  EXPECT_EQ(run.at("counts").at("frames").get<int>(), 3);
+  for (const std::string bad : {"0", "-1", "inf", "nan"}) {
+    const auto b = Track(Seq(), SettingsFile(), Voc(), "--max-pace-gap " + bad);
+    EXPECT_EQ(b.exit_code, 64) << bad << ": " << b.output;
+  }
+  const auto help = RunTool("track", "--help");
+  EXPECT_NE(help.output.find("--max-pace-gap FLOAT=1"), std::string::npos) << help.output;
 }
 
 }  // namespace

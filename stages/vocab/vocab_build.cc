@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "common/errors.h"
+#include "common/worker_pool.h"
 
 namespace rrslam {
 
@@ -60,10 +61,10 @@ void SetWordWeights(std::span<const std::span<const OrbDescriptor>> images, int 
       if (progress != nullptr) progress->Advance();
     }
   };
-  std::vector<std::thread> workers;
-  for (int t = 1; t < num_threads; ++t) workers.emplace_back(work, t);
-  work(0);
-  for (auto& t : workers) t.join();
+  // Index t counts into counts[t]; each index runs once, on one thread. A
+  // thread that cannot be started is a ResourceError (WorkerPool).
+  WorkerPool pool(num_threads);
+  pool.ParallelFor(static_cast<size_t>(num_threads), [&](size_t t) { work(static_cast<int>(t)); });
   const double num_images = static_cast<double>(images.size());
   for (size_t i = 1; i < n; ++i) {
     if (LinkChildren(data->links()[i]) != 0) continue;

@@ -14,9 +14,11 @@
 #include "common/cli.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/progress.h"
 #include "common/text.h"
+#include "common/worker_pool.h"
 #include "stages/cluster/vocab_tree.h"
 #include "stages/extract/features_file.h"
 #include "stages/vocab/vocab_build.h"
@@ -95,7 +97,10 @@ bool VocabBuildOptions::Check(std::string* why) const {
                          "; must be l1, l2, chi-square, kl, bhattacharyya or dot-product");
   }
   if (stride < 1) return Fail(why, "stride = " + std::to_string(stride) + "; must be >= 1");
-  if (threads < 0) return Fail(why, "threads = " + std::to_string(threads) + "; must be >= 0");
+  if (threads < 0 || threads > kMaxThreads) {
+    return Fail(why, "threads = " + std::to_string(threads) + "; must be in [0, " +
+                         std::to_string(kMaxThreads) + "] (0 = all cores)");
+  }
   return true;
 }
 
@@ -156,7 +161,7 @@ void BindVocabCommands(CLI::App& app, VocabCommands* c) {
       ->add_option("--stride", c->build.stride,
                    "Every N-th frame is a training image (as given to rrslam-cluster)")
       ->capture_default_str();
-  build->add_option("--threads", c->build.threads, "Worker threads, 0 = all cores")
+  build->add_option("--threads", c->build.threads, "Worker threads, in [0, 256], 0 = all cores")
       ->capture_default_str();
   build->callback([c] { c->chosen = "build"; });
 
@@ -259,7 +264,7 @@ void RunVocabBuild(const VocabBuildOptions& options) {
                               {{"file", options.tree.string()},
                                {"producer", tree_info.producer},
                                {"options", tree_info.options}}}};
-  data.metadata = metadata.dump();
+  data.metadata = DumpJson(metadata);
   WriteVocabulary(options.out, data.view(), options.out.string());
   spdlog::info("vocab build: k={} L={} {} nodes, {} words, {} images, {} / {} in {:.2f} s -> {}",
                data.info.k, data.info.levels, data.info.num_nodes, data.info.num_words,
@@ -280,14 +285,12 @@ void RunVocabConvert(const VocabConvertOptions& options) {
   VocabularyView view = vocabulary.view();
   std::string metadata;
   if (KindByExtension(options.out) == FileKind::kBinary && !vocabulary.is_binary()) {
-    metadata =
-        nlohmann::json{{"producer", Producer("vocab")},
-                       {"command", "convert"},
-                       {"converted_from", options.in.filename().string()},
-                       {"source_format",
-                        format == VocabularyFileFormat::kDbow2Yaml ? "dbow2-yaml" : "dbow2-text"},
-                       {"source_checksum", Hex64(vocabulary.checksum())}}
-            .dump();
+    metadata = DumpJson(nlohmann::json{
+        {"producer", Producer("vocab")},
+        {"command", "convert"},
+        {"converted_from", options.in.filename().string()},
+        {"source_format", format == VocabularyFileFormat::kDbow2Yaml ? "dbow2-yaml" : "dbow2-text"},
+        {"source_checksum", Hex64(vocabulary.checksum())}});
     view.metadata = metadata;
   }
   WriteVocabulary(options.out, view, options.in.string());
@@ -360,10 +363,10 @@ std::string RunVocabInfo(const VocabInfoOptions& options) {
   }
   std::string text;
   if (options.json) {
-    text = j.dump(2) + "\n";
+    text = DumpJson(j, 2) + "\n";
   } else {
     for (const auto& [key, value] : j.items()) {
-      text += key + ": " + (value.is_string() ? value.get<std::string>() : value.dump()) + "\n";
+      text += key + ": " + (value.is_string() ? value.get<std::string>() : DumpJson(value)) + "\n";
     }
   }
   std::cout << text << std::flush;
@@ -434,7 +437,7 @@ std::string RunVocabQuery(const VocabQueryOptions& options) {
 
   std::string text;
   if (options.json) {
-    text = j.dump(2) + "\n";
+    text = DumpJson(j, 2) + "\n";
   } else {
     std::ostringstream s;
     s << "vocabulary: " << vocabulary.Identity() << "\n";

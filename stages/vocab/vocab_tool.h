@@ -27,7 +27,9 @@ struct VocabBuildOptions {
   // Every `stride`-th frame of each features file is a training image (>= 1);
   // use the stride given to rrslam-cluster.
   int stride = 1;
-  int threads = 0;  // Worker threads, 0 = all; does not change the result.
+  // Worker threads, 0 = all; in [0, kMaxThreads = 256] (common/worker_pool.h).
+  // Does not change the result.
+  int threads = 0;
 
   bool Check(std::string* why) const;
   nlohmann::json ToJson() const;

@@ -7,6 +7,7 @@
 #include "common/atomic_file.h"
 #include "common/errors.h"
 #include "common/testing.h"
+#include "common/worker_pool.h"
 #include "stages/cluster/cluster.h"
 #include "stages/extract/features_file.h"
 #include "stages/vocab/vocab_test_util.h"
@@ -56,6 +57,22 @@ TEST(VocabOptions, BuildChecks) {
   bad = o;
   bad.threads = -2;
   ExpectCheckFails(bad, "threads");
+}
+
+// Found in review (issue 36): thousands of threads hung the tool when one
+// could not be started; more than kMaxThreads are a usage error (exit 64).
+TEST(VocabOptions, BuildThreadsAreBounded) {
+  VocabBuildOptions o;
+  o.tree = "t.h5";
+  o.features = {"f.h5"};
+  o.out = "v.rrv";
+  o.threads = kMaxThreads;
+  std::string why;
+  EXPECT_TRUE(o.Check(&why)) << why;
+  for (int threads : {kMaxThreads + 1, 100000}) {
+    o.threads = threads;
+    ExpectCheckFails(o, "threads = " + std::to_string(threads) + "; must be in [0, 256]");
+  }
 }
 
 TEST(VocabOptions, ConvertInfoQueryChecks) {

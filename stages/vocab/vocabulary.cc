@@ -70,6 +70,15 @@ Vocabulary Vocabulary::Load(const std::filesystem::path& path) {
   if (!std::filesystem::exists(path, ec)) {
     throw NoInputError(path.string() + ": vocabulary file not found");
   }
+  {
+    // A binary file's header first, from a mapping that reads only the pages
+    // it touches: a file padded far beyond the size its header gives is
+    // refused before the pre-faulting mapping below would read all of it.
+    const MappedFile probe(path);
+    if (HasMagic(probe.bytes(), kVocabularyFormat)) {
+      ParseBinaryHeader(probe.bytes(), kVocabularyFormat, path.string());
+    }
+  }
   // Pre-faulting every page costs less than taking the faults one by one, and
   // the checksum reads every page anyway.
   MappedFile file(path, /*populate=*/true);

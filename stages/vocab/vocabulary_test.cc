@@ -276,6 +276,25 @@ TEST(Vocabulary, ContentHashIdentifiesTheTreeNotTheFile) {
             Vocabulary::FromData(std::move(same), "s").content_hash());
 }
 
+// A binary vocabulary padded far beyond the size its header gives (256 MB,
+// sparse) is refused from its header, before the mapping that pre-faults
+// every page reads it all.
+TEST(Vocabulary, PaddedBinaryFileIsRefusedBeforeItsPagesAreRead) {
+  testing::TempDir dir;
+  WriteBinaryVocabulary(dir / "v.rrv", testing::RandomVocabulary(6, 2, 3).view());
+  std::filesystem::resize_file(dir / "v.rrv", uint64_t{256} << 20);
+  if (!testing::ResetPeakResident()) GTEST_SKIP() << "cannot reset the peak resident size";
+  const long before = testing::PeakResidentKb();
+  try {
+    Vocabulary::Load(dir / "v.rrv");
+    ADD_FAILURE() << "no error";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("v.rrv: truncated or padded"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_LT(testing::PeakResidentKb() - before, 64 * 1024) << "kB read into memory";
+}
+
 TEST(Vocabulary, LoadErrorsNameTheFile) {
   testing::TempDir dir;
   EXPECT_THROW(Vocabulary::Load(dir / "missing.rrv"), NoInputError);

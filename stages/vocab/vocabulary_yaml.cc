@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <stdexcept>
 #include <string_view>
@@ -18,47 +19,53 @@
 namespace rrslam {
 namespace {
 
-// Decompressed YAML larger than this is refused (a gzip bomb, not a
-// vocabulary: ORBvoc-sized YAML is ~250 MB).
-constexpr uint64_t kMaxYamlBytes = uint64_t{4} << 30;
+uint64_t max_yaml_bytes = kMaxYamlVocabularyBytes;  // SetMaxYamlVocabularyBytesForTesting.
+
+// "1 GiB", "64 MiB", else bytes.
+std::string SizeText(uint64_t bytes) {
+  if (bytes > 0 && bytes % (uint64_t{1} << 30) == 0) return std::to_string(bytes >> 30) + " GiB";
+  if (bytes > 0 && bytes % (uint64_t{1} << 20) == 0) return std::to_string(bytes >> 20) + " MiB";
+  return std::to_string(bytes) + " bytes";
+}
 
 bool IsGzip(std::span<const uint8_t> bytes) {
   return bytes.size() >= 2 && bytes[0] == 0x1f && bytes[1] == 0x8b;
 }
 
-// The content of a gzip file (all members, as gzip -d reads them).
-std::string Gunzip(std::span<const uint8_t> bytes, const std::string& source) {
+// Inflates a gzip file (all members, as gzip -d reads them) through a
+// 256 KiB buffer, handing each piece to `sink` (may be null), and returns the
+// size of the content. Throws DataError once the content passes
+// max_yaml_bytes, having allocated nothing for it.
+uint64_t InflateGzip(std::span<const uint8_t> bytes, const std::string& source,
+                     const std::function<void(const char*, size_t)>& sink) {
   z_stream z{};
   // 16 + MAX_WBITS: a gzip wrapper, not zlib's.
   if (inflateInit2(&z, 16 + MAX_WBITS) != Z_OK) {
     throw std::runtime_error("zlib: inflateInit2 failed");
   }
-  std::string out;
-  out.resize(std::max<size_t>(size_t{1} << 16, 4 * bytes.size()));
-  size_t produced = 0;
+  std::vector<char> buffer(size_t{1} << 18);
+  uint64_t produced = 0;
   const uint8_t* in = bytes.data();
   size_t left = bytes.size();
   int status = Z_OK;
   while (true) {
-    if (produced == out.size()) {
-      if (out.size() >= kMaxYamlBytes) {
-        inflateEnd(&z);
-        throw DataError(source + ": decompresses to more than " +
-                        std::to_string(kMaxYamlBytes >> 30) + " GiB; not a vocabulary");
-      }
-      out.resize(std::min<uint64_t>(2 * out.size(), kMaxYamlBytes));
-    }
-    // zlib counts in uInt (32 bits): feed and drain at most 1 GiB at a time.
+    // zlib counts in uInt (32 bits): feed at most 1 GiB at a time.
     const size_t in_chunk = std::min<size_t>(left, size_t{1} << 30);
-    const size_t out_chunk = std::min<size_t>(out.size() - produced, size_t{1} << 30);
     z.next_in = const_cast<Bytef*>(in);
     z.avail_in = static_cast<uInt>(in_chunk);
-    z.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
-    z.avail_out = static_cast<uInt>(out_chunk);
+    z.next_out = reinterpret_cast<Bytef*>(buffer.data());
+    z.avail_out = static_cast<uInt>(buffer.size());
     status = inflate(&z, Z_NO_FLUSH);
     in += in_chunk - z.avail_in;
     left -= in_chunk - z.avail_in;
-    produced += out_chunk - z.avail_out;
+    const size_t out = buffer.size() - z.avail_out;
+    produced += out;
+    if (produced > max_yaml_bytes) {
+      inflateEnd(&z);
+      throw DataError(source + ": decompresses to more than " + SizeText(max_yaml_bytes) +
+                      ", more than a DBoW2 YAML vocabulary can be (a gzip bomb?)");
+    }
+    if (sink && out > 0) sink(buffer.data(), out);
     if (status == Z_STREAM_END) {
       // Concatenated members, as gzip allows; trailing zero padding ends it.
       while (left > 0 && *in == 0) {
@@ -69,7 +76,7 @@ std::string Gunzip(std::span<const uint8_t> bytes, const std::string& source) {
       inflateReset(&z);
       continue;
     }
-    if (status == Z_BUF_ERROR && left == 0 && produced < out.size()) break;  // Truncated.
+    if (status == Z_BUF_ERROR && left == 0) break;  // Truncated: no progress without input.
     if (status != Z_OK && status != Z_BUF_ERROR) break;
   }
   const std::string zlib_message = z.msg != nullptr ? z.msg : "";
@@ -79,7 +86,18 @@ std::string Gunzip(std::span<const uint8_t> bytes, const std::string& source) {
                     (zlib_message.empty() ? std::string() : " (" + zlib_message + ")") + " after " +
                     std::to_string(produced) + " bytes of YAML");
   }
-  out.resize(produced);
+  return produced;
+}
+
+// The content of a gzip file. Inflated twice: once to measure it (refusing
+// a bomb before anything is allocated for it), then into a string of exactly
+// that size (no doubling, so a vocabulary near the cap needs no more than
+// its size).
+std::string Gunzip(std::span<const uint8_t> bytes, const std::string& source) {
+  const uint64_t size = InflateGzip(bytes, source, nullptr);
+  std::string out;
+  out.reserve(size);
+  InflateGzip(bytes, source, [&](const char* data, size_t n) { out.append(data, n); });
   return out;
 }
 
@@ -308,6 +326,10 @@ VocabularyData ReadYamlTree(const cv::FileStorage& fs, const std::string& source
 
 VocabularyData ParseYamlVocabulary(std::span<const uint8_t> bytes, const std::string& source) {
   if (bytes.empty()) throw DataError(source + ": empty file, not a vocabulary");
+  if (!IsGzip(bytes) && bytes.size() > max_yaml_bytes) {
+    throw DataError(source + ": " + std::to_string(bytes.size()) + " bytes of YAML, more than " +
+                    SizeText(max_yaml_bytes) + ", more than a DBoW2 YAML vocabulary can be");
+  }
   std::string text = IsGzip(bytes)
                          ? Gunzip(bytes, source)
                          : std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size());
@@ -378,6 +400,10 @@ std::string FormatYamlVocabulary(const VocabularyView& v, const std::string& sou
   fs << "]";
   fs << "}";
   return fs.releaseAndGetString();
+}
+
+void SetMaxYamlVocabularyBytesForTesting(uint64_t bytes) {
+  max_yaml_bytes = bytes == 0 ? kMaxYamlVocabularyBytes : bytes;
 }
 
 bool HasYamlExtension(const std::filesystem::path& path) {

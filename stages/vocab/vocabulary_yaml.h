@@ -41,6 +41,18 @@
 
 namespace rrslam {
 
+// Largest DBoW2 YAML text read, plain or inflated from gzip: 1 GiB. A
+// node takes ~240 bytes of YAML (its descriptor in decimal, weight, ids), so
+// this is ~4.4 million nodes, four times ORB-SLAM's ORBvoc (k = 10, L = 6,
+// 1.1 million nodes, ~250 MB of YAML); one level more (11 million nodes,
+// 2.7 GB) is no vocabulary anyone uses, and 10 levels of k = 10 (1.1e10
+// nodes) are absurd. A gzip file inflating past it is a bomb, refused as it
+// inflates, before anything is allocated for the text.
+inline constexpr uint64_t kMaxYamlVocabularyBytes = uint64_t{1} << 30;
+
+// Tests only: lowers the cap above (0 restores it). Not thread-safe.
+void SetMaxYamlVocabularyBytesForTesting(uint64_t bytes);
+
 // Parses a DBoW2 YAML vocabulary held in memory, plain or gzip-compressed
 // (told by the gzip magic), into arrays in DBoW2 id order. Checks what the
 // DBoW2 text parser checks, plus what only YAML can get wrong: every key
@@ -52,7 +64,8 @@ namespace rrslam {
 // in node order (as DBoW2 numbers them; a vocabulary numbered otherwise
 // cannot be kept as binary or DBoW2 text without renumbering). Throws a
 // one-line DataError naming `source` and the node at fault (its nodeId and
-// its entry in the list: FileStorage gives no line numbers).
+// its entry in the list: FileStorage gives no line numbers), or the size when
+// the text is larger than kMaxYamlVocabularyBytes.
 VocabularyData ParseYamlVocabulary(std::span<const uint8_t> bytes, const std::string& source);
 
 // The YAML text DBoW2's save would write for `v` (nodes in its stack order,

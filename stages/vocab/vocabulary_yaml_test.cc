@@ -1,6 +1,7 @@
 #include "stages/vocab/vocabulary_yaml.h"
 
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <cstring>
 #include <nlohmann/json.hpp>
@@ -11,6 +12,7 @@
 #include "common/errors.h"
 #include "common/testing.h"
 #include "common/text.h"
+#include "common/yaml_text.h"
 #include "stages/vocab/vocab_test_util.h"
 #include "stages/vocab/vocab_tool.h"
 
@@ -373,6 +375,60 @@ TEST(YamlVocabulary, RejectsCorruptGzipAndNonYamlNamedYml) {
   EXPECT_THROW(LoadVocabularyFile(dir / "missing.yml"), NoInputError);
 }
 
+// One gzip member (level 9) of `text`.
+std::string GzipMember(const std::string& text) {
+  z_stream z{};
+  EXPECT_EQ(deflateInit2(&z, 9, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY), Z_OK);
+  std::string out(deflateBound(&z, static_cast<uLong>(text.size())), '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(text.data()));
+  z.avail_in = static_cast<uInt>(text.size());
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = static_cast<uInt>(out.size());
+  EXPECT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
+  out.resize(z.total_out);
+  deflateEnd(&z);
+  return out;
+}
+
+// A gzip file inflating past kMaxYamlVocabularyBytes (1 GiB) is a bomb: it
+// is refused while it inflates, naming the file and the cap, and nothing is
+// allocated for its content (it ran out of memory). The cap is lowered to
+// 256 MiB here (inflating 1 GiB of spaces takes seconds).
+TEST(YamlVocabulary, RefusesGzipInflatingPastTheCap) {
+  EXPECT_EQ(kMaxYamlVocabularyBytes, uint64_t{1} << 30);
+  // 257 members of 1 MiB of spaces: 270 kB of file, 257 MiB of content.
+  std::string bomb;
+  const std::string member = GzipMember(std::string(size_t{1} << 20, ' '));
+  for (int i = 0; i < 257; ++i) bomb += member;
+  ASSERT_LT(bomb.size(), size_t{1} << 20);
+  SetMaxYamlVocabularyBytesForTesting(uint64_t{256} << 20);
+  const bool measured = testing::ResetPeakResident();
+  const long before = testing::PeakResidentKb();
+  ExpectYamlError(bomb,
+                  "bad.yml: decompresses to more than 256 MiB, more than a DBoW2 YAML "
+                  "vocabulary can be");
+  if (measured) {
+    EXPECT_LT(testing::PeakResidentKb() - before, 64 * 1024) << "kB";
+  }
+  SetMaxYamlVocabularyBytesForTesting(0);
+}
+
+// At the cap a vocabulary reads; a byte above it, plain or gzip, it is
+// refused (the cap lowered through the testing hook).
+TEST(YamlVocabulary, CapAppliesToPlainAndGzipText) {
+  const VocabularyData hand = ParseTextVocabulary(HandText(), "h");
+  const std::string text = FormatYamlVocabulary(hand.view(), "h");
+  const std::string gz = GzipMember(text);
+  SetMaxYamlVocabularyBytesForTesting(text.size());
+  EXPECT_NO_THROW(ParseYamlVocabulary(Bytes(gz), "v.yml.gz"));
+  EXPECT_NO_THROW(ParseYamlVocabulary(Bytes(text), "v.yml"));
+  SetMaxYamlVocabularyBytesForTesting(text.size() - 1);
+  ExpectYamlError(gz, "decompresses to more than");
+  ExpectYamlError(text, std::to_string(text.size()) + " bytes of YAML, more than");
+  SetMaxYamlVocabularyBytesForTesting(0);
+  EXPECT_NO_THROW(ParseYamlVocabulary(Bytes(gz), "v.yml.gz"));
+}
+
 // --- The real vocabularies of ../shared/data/vocab ---------------------------
 
 struct RealVocabulary {
@@ -441,6 +497,28 @@ TEST(YamlVocabulary, TruncatedRealOrbvocIsRefusedWithLineAndNode) {
   }
   EXPECT_FALSE(fs::exists(dir / "orbvoc.rrv"));
   EXPECT_TRUE(testing::TemporaryLeftovers(dir).empty());
+}
+
+// Found in review (issue 36): a vocabulary nested tens of thousands of
+// levels deep overflowed the stack in OpenCV's recursive YAML parser (exit
+// 139). ParseYamlText refuses it first (kMaxYamlNesting), on the inflated
+// text of a .yml.gz as on plain text.
+TEST(YamlVocabulary, RejectsDeepNestingPlainAndGzip) {
+  const size_t n = 100000;
+  std::string maps;
+  for (size_t i = 0; i < n; ++i) maps += "{a: ";
+  const std::string fragment =
+      "line 8: YAML nested deeper than " + std::to_string(kMaxYamlNesting) + " levels";
+  const std::string flow =
+      kHeader + "   nodes: " + std::string(n, '[') + std::string(n, ']') + "\n";
+  ExpectYamlError(flow, fragment);
+  ExpectYamlError(kHeader + "   nodes: " + maps + "1" + std::string(n, '}') + "\n", fragment);
+  try {
+    ParseYamlVocabulary(Bytes(GzipMember(flow)), "deep.yml.gz");
+    ADD_FAILURE() << "accepted";
+  } catch (const DataError& e) {
+    EXPECT_EQ(std::string(e.what()), "deep.yml.gz: " + fragment);
+  }
 }
 
 }  // namespace

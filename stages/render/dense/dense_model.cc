@@ -21,6 +21,8 @@
 #include "common/clock.h"
 #include "common/dataset.h"
 #include "common/errors.h"
+#include "common/image_io.h"
+#include "common/json_text.h"
 #include "common/output_path.h"
 #include "stages/render/image_file.h"
 #include "stages/render/map_scene.h"
@@ -625,23 +627,30 @@ DenseModel BuildDenseModel(const DenseOptions& options, const DenseCamera& camer
   const Eigen::Vector3d corner = result.depth_bounds.min() - Eigen::Vector3d::Constant(margin);
   const Eigen::Vector3d extent =
       result.depth_bounds.sizes() + Eigen::Vector3d::Constant(2 * margin);
+  // In doubles, checked before anything becomes an int: the bounds come from
+  // the data, and a keyframe 1e30 m away must give the cap's message, not an
+  // int overflow (a negative resolution, an OpenCV assertion).
+  double cells[3];
   double voxels = 1;
   for (int axis = 0; axis < 3; ++axis) {
-    result.resolution[axis] = static_cast<int>(std::ceil(extent[axis] / voxel)) + 1;
-    voxels *= result.resolution[axis];
+    cells[axis] = std::ceil(extent[axis] / voxel) + 1;
+    voxels *= cells[axis];
   }
   const double bytes = voxels * kVoxelBytes;
-  if (bytes > options.max_volume_gb * kGiB || voxels > kMaxVoxels) {
+  if (!(bytes <= options.max_volume_gb * kGiB) || !(voxels <= kMaxVoxels)) {
     // The voxel at which the volume would fit (volume ~ 1 / voxel^3).
     const double cap = std::min(options.max_volume_gb * kGiB, kMaxVoxels * kVoxelBytes);
     const double fits = std::ceil(voxel * std::cbrt(bytes / cap) * 1.02 * 1000.0) / 1000.0;
-    throw UsageError("the volume would be " + std::to_string(result.resolution.x()) + " x " +
-                     std::to_string(result.resolution.y()) + " x " +
-                     std::to_string(result.resolution.z()) + " voxels of " + Format("%g", voxel) +
-                     " m (" + Format("%.1f", bytes / kGiB) + " GiB), above --max-volume-gb " +
-                     Format("%g", options.max_volume_gb) + "; use --voxel " + Format("%g", fits) +
-                     " or larger, or a smaller --max-depth");
+    const auto count = [](double n) { return Format(n < 1e9 ? "%.0f" : "%.3g", n); };
+    throw UsageError("the volume would be " + count(cells[0]) + " x " + count(cells[1]) + " x " +
+                     count(cells[2]) + " voxels of " + Format("%g", voxel) + " m (" +
+                     Format(bytes / kGiB < 1e9 ? "%.1f" : "%.3g", bytes / kGiB) +
+                     " GiB), above --max-volume-gb " + Format("%g", options.max_volume_gb) +
+                     (std::isfinite(fits) ? "; use --voxel " + Format("%g", fits) +
+                                                " or larger, or a smaller --max-depth"
+                                          : std::string("; the views lie too far apart")));
   }
+  for (int axis = 0; axis < 3; ++axis) result.resolution[axis] = static_cast<int>(cells[axis]);
   result.volume_origin = result.R_world_volume * corner;
   result.volume_bytes = static_cast<size_t>(bytes);
   spdlog::info("dense: volume {} x {} x {} voxels of {} m ({:.0f} MB), truncation {} m",
@@ -826,8 +835,28 @@ DenseResult RunDense(const DenseOptions& options) {
     throw DataError(map_name + ": camera depth_map_factor " +
                     Format("%g", map_camera.depth_map_factor) + "; must be > 0");
   }
+  // The camera sizes the undistortion maps (8 bytes a pixel, made before any
+  // image is read) and the images: checked against the images' cap (OpenCV's
+  // remap also asserts below 32767 pixels a side) and for finite values.
+  if (map_camera.width <= 0 || map_camera.height <= 0 || map_camera.width > kMaxImageSide ||
+      map_camera.height > kMaxImageSide) {
+    throw DataError(map_name + ": camera image size " + std::to_string(map_camera.width) + "x" +
+                    std::to_string(map_camera.height) + "; must be in [1, " +
+                    std::to_string(kMaxImageSide) + "] a side");
+  }
+  for (const double value :
+       {map_camera.fx, map_camera.fy, map_camera.cx, map_camera.cy, map_camera.k1, map_camera.k2,
+        map_camera.p1, map_camera.p2, map_camera.k3}) {
+    if (!std::isfinite(value)) {
+      throw DataError(map_name + ": camera intrinsics or distortion not finite");
+    }
+  }
   SequenceOptions sequence_options;
   sequence_options.associations = options.associations;
+  // Images are refused from their headers when larger than the map's camera
+  // (and kMaxImageSide), before they are decoded.
+  sequence_options.max_image_size = {map_camera.width, map_camera.height,
+                                     "the camera of " + map_name};
   const RgbdSequence sequence = RgbdSequence::Open(options.sequence, sequence_options);
 
   // Each keyframe's frame, by rgb timestamp.
@@ -914,7 +943,7 @@ DenseResult RunDense(const DenseOptions& options) {
       "producer " + producer,
       "rrslam-render dense: TSDF surface points (OpenCV rgbd COLOREDTSDF) of " + map_name,
       "frame: the map's world frame, metres",
-      "options " + options_json.dump(),
+      "options " + DumpJson(options_json),
       "volume voxel " + Format("%g", result.voxel) + " truncation " +
           Format("%g", result.truncation) + " origin " + Format("%.6f", o.x()) + " " +
           Format("%.6f", o.y()) + " " + Format("%.6f", o.z()) + " resolution " +
@@ -939,8 +968,8 @@ DenseResult RunDense(const DenseOptions& options) {
   metadata.description = "Dense TSDF model of " + map_name + " (" +
                          std::to_string(result.keyframes_fused) + " keyframes of " +
                          options.sequence.string() + "), raycast and shaded";
-  metadata.attributes = {{"rrslam:options", options_json.dump()},
-                         {"rrslam:view", view_json.dump()}};
+  metadata.attributes = {{"rrslam:options", DumpJson(options_json)},
+                         {"rrslam:view", DumpJson(view_json)}};
   WritePicture(image_path, model.rendering, metadata);
   result.write_seconds = MillisecondsSince(start) / 1000.0;
 

@@ -618,6 +618,68 @@ TEST_F(DenseRun, TooLargeVolumeIsRefused) {
   EXPECT_FALSE(fs::exists(options.out));
 }
 
+// A map with absurd values ends in a one-line typed error, never in an
+// internal error (an OpenCV assertion) or a huge allocation: a keyframe 1e30 m
+// away gives a volume that does not fit (the memory cap's message,
+// UsageError, exit 64; its size overflowed int and went negative); a camera
+// wider than kMaxImageSide (at 40000 x 40000 pixels the undistortion maps
+// alone were 12 GB, and OpenCV's remap asserts from 32767) or with
+// non-finite distortion is refused (DataError, exit 65); distortion
+// coefficients of 1e6 give a (nearly empty) model or a typed error.
+TEST_F(DenseRun, AbsurdMapValuesAreRefusedWithTypedErrors) {
+  WriteSequenceAndMap(scene_, dir_ / "seq", dir_ / "map.rrm");
+  const MapData good = ReadMapFile(dir_ / "map.rrm");
+  const DenseOptions options = TestOptions(dir_);
+  // The message of RunDense's error on `map`, "" when it succeeds.
+  auto run = [&](const MapData& map) -> std::string {
+    WriteMapFile(dir_ / "map.rrm", map);
+    fs::remove(options.out);
+    try {
+      RunDense(options);
+      return "";
+    } catch (const UsageError& e) {
+      return std::string("usage: ") + e.what();
+    } catch (const DataError& e) {
+      return std::string("data: ") + e.what();
+    } catch (const AlgorithmError& e) {
+      return std::string("algorithm: ") + e.what();
+    } catch (const std::exception& e) {
+      return std::string("internal: ") + e.what();
+    }
+  };
+  for (const double far : {1e30, -1e30, 1e300}) {
+    for (double MapPose::*axis : {&MapPose::tx, &MapPose::tz}) {
+      MapData map = good;
+      map.keyframes[1].T_cam_world.*axis = far;
+      const std::string message = run(map);
+      EXPECT_EQ(message.rfind("usage: the volume would be ", 0), 0u) << message;
+      EXPECT_NE(message.find("above --max-volume-gb 3"), std::string::npos) << message;
+      EXPECT_EQ(message.find('-', 6), message.find("--max-volume-gb"))
+          << message;  // No "-2147...".
+      EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+      EXPECT_FALSE(fs::exists(options.out));
+    }
+  }
+  MapData map = good;
+  map.camera.width = kMaxImageSide + 1;
+  map.camera.k1 = 0.1;
+  EXPECT_EQ(run(map), "data: " + (dir_ / "map.rrm").string() + ": camera image size 16385x" +
+                          std::to_string(good.camera.height) + "; must be in [1, 16384] a side");
+  map = good;
+  map.camera.k2 = std::numeric_limits<double>::infinity();
+  EXPECT_NE(run(map).find("data: "), std::string::npos);
+  for (double MapCamera::*k :
+       {&MapCamera::k1, &MapCamera::k2, &MapCamera::p1, &MapCamera::p2, &MapCamera::k3}) {
+    for (const double value : {1e6, -1e6}) {
+      map = good;
+      map.camera.*k = value;
+      const std::string message = run(map);
+      EXPECT_EQ(message.find("internal: "), std::string::npos) << message;
+      EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    }
+  }
+}
+
 TEST_F(DenseRun, MissingOutputFolderFailsFirst) {
   WriteSequenceAndMap(scene_, dir_ / "seq", dir_ / "map.rrm");
   DenseOptions options = TestOptions(dir_);

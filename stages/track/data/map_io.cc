@@ -11,6 +11,7 @@
 #include "common/errors.h"
 #include "common/text.h"
 #include "common/worker_pool.h"
+#include "stages/mapstore/map_file.h"
 #include "stages/track/data/frame.h"
 
 namespace rrslam {
@@ -228,6 +229,9 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
   if (map->num_created_keyframes() > 0 || map->num_created_map_points() > 0) {
     throw DataError(source + ": cannot load a map into a map that is not empty");
   }
+  // Ids index the map's arrays (Map::ReserveIds): the next ids must be in
+  // proportion to the map before anything is allocated for them.
+  CheckMapNextIds(data, source);
   const bool recompute_bow = data.bow_levels_up != bow_levels_up;
   if (recompute_bow) {
     spdlog::info("{}: feature vectors grouped {} levels up, this run groups {}; recomputing them",

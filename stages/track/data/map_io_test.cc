@@ -152,6 +152,31 @@ TEST_F(MapIoTest, LoadingIntoAMapThatIsNotEmptyIsRefused) {
                DataError);
 }
 
+// Ids index the live map's arrays: a next id far above the map's size (1e8
+// .. 4.6e18, from a forged or corrupt file) is refused before anything is
+// allocated for it, naming the field (it made Map::ReserveIds allocate in
+// proportion to the id until out of memory).
+TEST_F(MapIoTest, NextIdsAboveTheBoundAreRefusedBeforeAllocating) {
+  for (uint64_t next : {uint64_t{100000000}, uint64_t{4600000000000000000}}) {
+    for (const char* field : {"next_keyframe_id", "next_map_point_id"}) {
+      MapData data = Save(map_);
+      (field[5] == 'k' ? data.next_keyframe_id : data.next_map_point_id) = next;
+      Map loaded;
+      KeyFrameDatabase database(vocabulary_);
+      try {
+        LoadMapData(std::move(data), sensor_, vocabulary_, 1, &loaded, &database, "m.rrm");
+        ADD_FAILURE() << field << " " << next << " was loaded";
+      } catch (const DataError& e) {
+        EXPECT_NE(std::string(e.what()).find(std::string("m.rrm: section meta: ") + field + " " +
+                                             std::to_string(next) + " is above"),
+                  std::string::npos)
+            << e.what();
+      }
+      EXPECT_EQ(loaded.num_created_keyframes(), 0u);
+    }
+  }
+}
+
 TEST_F(MapIoTest, AnotherCameraOrVocabularyIsRefusedWithTheDifference) {
   const MapData data = Save(map_);
   const MapCamera camera = MapCameraFrom(settings_, 640, 480);

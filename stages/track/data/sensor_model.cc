@@ -44,7 +44,7 @@ SensorModel::SensorModel(const Settings& settings, int image_width, int image_he
   bf = settings.bf;
   baseline = settings.Baseline();
   th_depth = settings.ThDepthMetres();
-  disparity_sigma = settings.depth_disparity_sigma;
+  disparity_sigma = settings.depth_noise.DisparitySigma(settings.bf);
   bounds = camera.UndistortedBounds();
   grid_inv_cell_width = kGridCols / (bounds.max_x - bounds.min_x);
   grid_inv_cell_height = kGridRows / (bounds.max_y - bounds.min_y);

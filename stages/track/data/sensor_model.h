@@ -46,8 +46,8 @@ struct SensorModel {
   double bf = 40.0;       // Baseline (m) times fx (px): u_R = u - bf / depth.
   double baseline = 0.0;  // bf / fx, metres.
   double th_depth = 0.0;  // Close/far threshold in metres (bf * ThDepth / fx).
-  // Depth noise as a disparity sigma in pixels (Settings::depth_disparity_sigma);
-  // 0 = ORB-SLAM2's weighting of u_R by the keypoint's sigma.
+  // Depth noise as a disparity sigma in pixels (DepthNoise::DisparitySigma of
+  // the settings); 0 = ORB-SLAM2's weighting of u_R by the keypoint's sigma.
   double disparity_sigma = 0.0;
   ImageBounds bounds;               // Ideal-pixel bounds of the image.
   double grid_inv_cell_width = 0;   // Cells per pixel along u.

@@ -11,20 +11,6 @@
 namespace rrslam {
 namespace {
 
-// Uses `sparse` with the sparse linear algebra this Ceres build has
-// (SuiteSparse, else Eigen's), or `dense` when it has none.
-void ChooseLinearSolver(ceres::LinearSolverType sparse, ceres::LinearSolverType dense,
-                        ceres::Solver::Options* options) {
-  for (const auto library : {ceres::SUITE_SPARSE, ceres::EIGEN_SPARSE}) {
-    if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(library)) {
-      options->linear_solver_type = sparse;
-      options->sparse_linear_algebra_library_type = library;
-      return;
-    }
-  }
-  options->linear_solver_type = dense;
-}
-
 // Whitened pixel error of a fixed camera-frame point mapped by a relative
 // pose: with `inverse` false the point is in camera 2 and maps by T_12 into
 // camera 1; with `inverse` true it is in camera 1 and maps by T_12^-1.

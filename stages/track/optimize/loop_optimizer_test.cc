@@ -245,59 +245,8 @@ TEST_F(RelativePoseTest, FewerThanTenMatchesLeaveTheTransformUnchanged) {
   EXPECT_EQ(T_12.translation, start.translation);
 }
 
-// Five keyframes along a path over a random scene, every keypoint tied to
-// the map point of its scene point; exact pixels and depths.
-class GlobalBundleAdjustmentTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    scene_ = RandomScene(200, rng_, 2.0, 4.0);
-    points_.assign(scene_.size(), nullptr);
-    for (int k = 0; k < 5; ++k) {
-      truth_.push_back(SmallMotion(0.02 * k, 0.08 * k));
-      AddKeyFrame(truth_[k]);
-    }
-    for (KeyFrame* kf : keyframes_) map_.UpdateConnections(kf);
-  }
-
-  // A keyframe at T_cam_world seeing the scene from truth_ pose `T_true`.
-  KeyFrame* AddKeyFrame(const Rigid3d& T_true, const Rigid3d* T_cam_world = nullptr) {
-    testing::SyntheticView view = RenderView(sensor_, scene_, T_true, rng_);
-    for (size_t i = 0; i < view.keypoints.size(); i += 3) view.keypoints[i].depth = 0;
-    KeyFrame* kf = map_.CreateKeyFrame(MakeFrame(sensor_, view, keyframes_.size(),
-                                                 T_cam_world != nullptr ? *T_cam_world : T_true));
-    map_.AddKeyFrame(kf);
-    keyframes_.push_back(kf);
-    for (size_t i = 0; i < view.point_of.size(); ++i) {
-      const int p = view.point_of[i];
-      if (points_[p] == nullptr) {
-        points_[p] = map_.CreateMapPoint(scene_[p].position, kf);
-        map_.AddMapPoint(points_[p]);
-      }
-      map_.AddObservation(points_[p], kf, static_cast<uint32_t>(i));
-    }
-    return kf;
-  }
-
-  // Keyframes 1.. moved off the truth, points by 2 cm noise.
-  void Perturb() {
-    for (size_t k = 1; k < keyframes_.size(); ++k) {
-      keyframes_[k]->SetPose(SmallMotion(0.01 * (k % 2 ? 1 : -1), 0.03) * truth_[k]);
-    }
-    std::normal_distribution<double> noise(0.0, 0.02);
-    for (MapPoint* p : points_) {
-      if (p == nullptr) continue;
-      p->SetPosition(p->position_world() + Eigen::Vector3d(noise(rng_), noise(rng_), noise(rng_)));
-    }
-  }
-
-  std::mt19937 rng_{51};
-  SensorModel sensor_ = TestSensor();
-  std::vector<testing::ScenePoint> scene_;
-  std::vector<Rigid3d> truth_;
-  Map map_;
-  std::vector<KeyFrame*> keyframes_;
-  std::vector<MapPoint*> points_;
-};
+// Five keyframes along a path over a random scene (test_scene.h).
+class GlobalBundleAdjustmentTest : public ::testing::Test, public testing::KeyFrameChainScene {};
 
 TEST_F(GlobalBundleAdjustmentTest, LowersTheCostAndReturnsPosesTowardsTheTruth) {
   Perturb();

@@ -152,7 +152,37 @@ int OptimizeFramePose(const SensorModel& sensor, Frame* frame,
   return static_cast<int>(matches.size()) - bad;
 }
 
+void ChooseLinearSolver(ceres::LinearSolverType sparse, ceres::LinearSolverType dense,
+                        ceres::Solver::Options* options) {
+  for (const auto library : {ceres::SUITE_SPARSE, ceres::EIGEN_SPARSE}) {
+    if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(library)) {
+      options->linear_solver_type = sparse;
+      options->sparse_linear_algebra_library_type = library;
+      return;
+    }
+  }
+  options->linear_solver_type = dense;
+}
+
 void LocalBundleAdjuster::Collect(KeyFrame* keyframe, const Map& map) {
+  std::vector<KeyFrame*> local = {keyframe};
+  for (KeyFrame* kf : keyframe->covisible()) {
+    if (!kf->bad()) local.push_back(kf);
+  }
+  whole_map_ = false;
+  CollectAround(local, map);
+}
+
+void LocalBundleAdjuster::CollectAll(const Map& map) {
+  std::vector<KeyFrame*> all;
+  for (KeyFrame* kf : map.KeyFrames()) {
+    if (!kf->bad()) all.push_back(kf);
+  }
+  whole_map_ = true;
+  CollectAround(all, map);
+}
+
+void LocalBundleAdjuster::CollectAround(const std::vector<KeyFrame*>& local, const Map& map) {
   keyframes_.clear();
   keyframe_fixed_.clear();
   poses_.clear();
@@ -168,10 +198,7 @@ void LocalBundleAdjuster::Collect(KeyFrame* keyframe, const Map& map) {
     keyframe_fixed_.push_back(fixed || kf == map.root());
     poses_.push_back(ToPoseBlock(kf->T_cam_world()));
   };
-  add_keyframe(keyframe, false);
-  for (KeyFrame* kf : keyframe->covisible()) {
-    if (!kf->bad()) add_keyframe(kf, false);
-  }
+  for (KeyFrame* kf : local) add_keyframe(kf, false);
   const size_t num_local = keyframes_.size();  // Free keyframes come first.
 
   // Points seen by the local keyframes, in keyframe then keypoint order.
@@ -286,6 +313,9 @@ void LocalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
     }
     ceres::Solver::Options options;
     options.linear_solver_type = ceres::DENSE_SCHUR;
+    // The whole map's reduced camera system is sparse (a keyframe shares
+    // points with its covisible keyframes only).
+    if (whole_map_) ChooseLinearSolver(ceres::SPARSE_SCHUR, ceres::DENSE_SCHUR, &options);
     options.linear_solver_ordering.reset(ordering);
     options.max_num_iterations = SuccessfulStepLimit::MaxIterationsFor(iterations);
     options.num_threads = 1;

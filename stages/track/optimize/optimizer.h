@@ -152,6 +152,9 @@ class LocalBundleAdjuster {
       : sensor_(sensor), options_(options) {}
 
   void Collect(KeyFrame* keyframe, const Map& map);
+  // Collect for the whole map (the final refinement, map_refinement.h): every
+  // keyframe free but the map's first (gauge freedom), every map point.
+  void CollectAll(const Map& map);
   // `abort` (may be null) is polled between iterations; when it becomes true
   // the solver stops with the current estimate.
   void Solve(const std::atomic<bool>* abort = nullptr);
@@ -168,8 +171,12 @@ class LocalBundleAdjuster {
     bool outlier = false;
   };
 
+  // `local` free, then every other observer of their points fixed.
+  void CollectAround(const std::vector<KeyFrame*>& local, const Map& map);
+
   const SensorModel& sensor_;
   LocalBundleAdjustmentOptions options_;
+  bool whole_map_ = false;            // CollectAll: a sparse Schur solver.
   std::vector<KeyFrame*> keyframes_;  // Local (free) first, then fixed.
   std::vector<uint8_t> keyframe_fixed_;
   std::vector<std::array<double, 7>> poses_;
@@ -178,6 +185,11 @@ class LocalBundleAdjuster {
   std::vector<Observation> observations_;
   LocalBundleAdjustmentStats stats_;
 };
+
+// Uses `sparse` with the sparse linear algebra this Ceres build has
+// (SuiteSparse, else Eigen's), or `dense` when it has none.
+void ChooseLinearSolver(ceres::LinearSolverType sparse, ceres::LinearSolverType dense,
+                        ceres::Solver::Options* options);
 
 // Pose block [qx, qy, qz, qw, tx, ty, tz] of a transform and back.
 std::array<double, 7> ToPoseBlock(const Rigid3d& T);

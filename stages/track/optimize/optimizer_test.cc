@@ -100,7 +100,8 @@ TEST(ReprojectionErrorTest, ResidualIsWhitenedProjectionError) {
 TEST(ReprojectionErrorTest, SquaredNormIsTheSensorsStereoChiSquare) {
   for (double disparity_sigma : {0.0, 0.25}) {
     Settings settings = testing::TestSettings();
-    settings.depth_disparity_sigma = disparity_sigma;
+    if (disparity_sigma > 0)
+      settings.depth_noise = {DepthNoise::Model::kQuadratic, 0, disparity_sigma};
     const SensorModel sensor(settings, 640, 480);
     const ProjectionParameters k = ProjectionParametersOf(sensor);
     const int octave = 3;
@@ -123,7 +124,7 @@ class PoseOptimizationWithOutliersTest : public ::testing::TestWithParam<double>
 TEST_P(PoseOptimizationWithOutliersTest, RecoversPoseWithThirtyPercentOutliers) {
   std::mt19937 rng(21);
   Settings settings = testing::TestSettings();
-  settings.depth_disparity_sigma = GetParam();
+  if (GetParam() > 0) settings.depth_noise = {DepthNoise::Model::kQuadratic, 0, GetParam()};
   const SensorModel sensor(settings, 640, 480);
   const std::vector<testing::ScenePoint> scene = RandomScene(500, rng, 1.5, 4.0);
   const Rigid3d T_true = SmallMotion(0.1, 0.3);
@@ -209,17 +210,8 @@ class LocalBundleAdjustmentTest : public ::testing::Test {
       // A third of the keypoints without depth.
       for (size_t i = 0; i < view.keypoints.size(); i += 3) view.keypoints[i].depth = 0;
       AdjustView(k, &view);
-      KeyFrame* kf = map_.CreateKeyFrame(MakeFrame(sensor_, view, k, truth_[k]));
-      map_.AddKeyFrame(kf);
-      keyframes_.push_back(kf);
-      for (size_t i = 0; i < view.point_of.size(); ++i) {
-        const int p = view.point_of[i];
-        if (points_[p] == nullptr) {
-          points_[p] = map_.CreateMapPoint(scene_[p].position, kf);
-          map_.AddMapPoint(points_[p]);
-        }
-        map_.AddObservation(points_[p], kf, static_cast<uint32_t>(i));
-      }
+      keyframes_.push_back(
+          testing::AddViewKeyFrame(sensor_, view, k, truth_[k], scene_, &map_, &points_));
     }
     for (KeyFrame* kf : keyframes_) map_.UpdateConnections(kf);
     for (MapPoint* p : points_) {
