@@ -202,6 +202,27 @@ std::string MapIdentity(const MapFileInfo& info) {
       {reinterpret_cast<const uint8_t*>(checksums.data()), checksums.size() * sizeof(uint64_t)}));
 }
 
+// Says at start when --pace will cut a timestamp gap short, naming the largest.
+void WarnLongPaceGap(const RgbdSequence& sequence, const std::vector<size_t>& frames,
+                     double max_gap) {
+  double largest = 0;
+  size_t after = 0;
+  for (size_t j = 1; j < frames.size(); ++j) {
+    const double gap =
+        sequence.frame(frames[j]).rgb_timestamp - sequence.frame(frames[j - 1]).rgb_timestamp;
+    if (gap > largest) {
+      largest = gap;
+      after = j;
+    }
+  }
+  if (largest <= max_gap) return;
+  spdlog::warn(
+      "track: --pace: the timestamps jump {:.3f} s from frame {} ({:.6f}) to frame {} "
+      "({:.6f}); gaps longer than --max-pace-gap = {} s are paced as {} s",
+      largest, frames[after - 1], sequence.frame(frames[after - 1]).rgb_timestamp, frames[after],
+      sequence.frame(frames[after]).rgb_timestamp, max_gap, max_gap);
+}
+
 double PeakRssMegabytes() {
   struct rusage usage {};
   getrusage(RUSAGE_SELF, &usage);
@@ -454,6 +475,7 @@ TrackSummary RunTrack(const TrackOptions& options) {
   tracking_ms.reserve(frames.size());
   ProgressBar progress("track", frames.size(), "frame");
   const auto loop_start = SteadyClock::now();
+  if (realtime && options.pace) WarnLongPaceGap(sequence, frames, options.max_pace_gap);
   // --pace: seconds of the sequence delivered so far (gaps capped at
   // --max-pace-gap), and the previous frame's timestamp.
   double paced_s = 0, previous_timestamp = sequence.frame(frames.front()).rgb_timestamp;
@@ -475,27 +497,6 @@ TrackSummary RunTrack(const TrackOptions& options) {
       depth = std::move(images.depth_metres);
     }
     if (realtime && options.pace) {
-      if (k == 0) {
-        // Say at start when a gap will be cut short, naming the largest.
-        double largest = 0;
-        size_t after = 0;
-        for (size_t j = 1; j < frames.size(); ++j) {
-          const double gap =
-              sequence.frame(frames[j]).rgb_timestamp - sequence.frame(frames[j - 1]).rgb_timestamp;
-          if (gap > largest) {
-            largest = gap;
-            after = j;
-          }
-        }
-        if (largest > options.max_pace_gap) {
-          spdlog::warn(
-              "track: --pace: the timestamps jump {:.3f} s from frame {} ({:.6f}) to frame {} "
-              "({:.6f}); gaps longer than --max-pace-gap = {} s are paced as {} s",
-              largest, frames[after - 1], sequence.frame(frames[after - 1]).rgb_timestamp,
-              frames[after], sequence.frame(frames[after]).rgb_timestamp, options.max_pace_gap,
-              options.max_pace_gap);
-        }
-      }
       // A gap longer than --max-pace-gap is not slept through (a pause in
       // the recording, sequences glued together): it counts as that long.
       const double gap = timestamp - previous_timestamp;
