@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "common/errors.h"
+#include "common/temporaries.h"
 
 namespace rrslam {
 namespace fs = std::filesystem;
@@ -55,17 +56,20 @@ void CommitStep(std::string_view step) {
   if (const auto hook = g_commit_hook.load()) hook(step);
 }
 
-// `<final>.<6 random characters><suffix>`, beside `final`.
+// `<final>.<6 random characters><suffix>`, beside `final`. A final name
+// too long for that within the file system's 255-byte limit on a name is cut
+// short in the temporary name (a legal 250-byte output name must not fail).
 fs::path UniqueSibling(const fs::path& final, std::string_view suffix) {
   static constexpr char kAlphabet[] = "abcdefghijklmnopqrstuvwxyz0123456789";
+  static constexpr size_t kMaxName = 255;  // NAME_MAX of ext4, xfs, btrfs, tmpfs.
   thread_local std::mt19937_64 random(std::random_device{}() ^
                                       (static_cast<uint64_t>(::getpid()) << 32));
   std::string tag(6, 'x');
   for (char& c : tag) c = kAlphabet[random() % (sizeof(kAlphabet) - 1)];
-  fs::path path = final;
-  path += "." + tag;
-  path += suffix;
-  return path;
+  std::string name = final.filename().string();
+  const size_t room = kMaxName - 1 - tag.size() - suffix.size();
+  if (name.size() > room) name.resize(room);
+  return final.parent_path() / (name + "." + tag + std::string(suffix));
 }
 
 // Creates a new, empty temporary file or folder beside `final` under a name
@@ -300,24 +304,34 @@ AtomicOutput::AtomicOutput(fs::path final_path, Kind kind, OutputFolderOwner own
                           "written as regular files and replaced atomically");
   }
   if (kind_ == Kind::kDirectory) CheckFolderMayBeReplaced(final_path_, owner_);
-  temp_path_ = CreateUniqueTemporary(final_path_, kind_);
+  {
+    const auto lock = LockTemporaries();
+    temp_path_ = CreateUniqueTemporary(final_path_, kind_);
+    RegisterTemporary(temp_path_);
+  }
   if (kind_ == Kind::kDirectory && !owner_.tool.empty()) {
     const fs::path marker = temp_path_ / kOutputFolderMarker;
     std::ofstream stream(marker, std::ios::binary);
     stream << owner_.tool << "\n";
     stream.flush();
     if (!stream) {
+      const auto lock = LockTemporaries();
       fs::remove_all(temp_path_, ec);  // No destructor runs for a throwing constructor.
+      ForgetTemporary(temp_path_);
       throw CantCreateError(marker.string() + ": cannot write");
     }
   }
 }
 
 AtomicOutput::~AtomicOutput() {
+  const auto lock = LockTemporaries();
   if (!committed_) {
     std::error_code ec;
     fs::remove_all(temp_path_, ec);
   }
+  // Committed, the temporary name is gone or holds a replaced folder kept
+  // on purpose (see Commit): not to be removed on an interruption either.
+  ForgetTemporary(temp_path_);
 }
 
 void AtomicOutput::Commit() {
@@ -325,8 +339,11 @@ void AtomicOutput::Commit() {
   if (!fs::exists(temp_path_, ec)) {
     throw CantCreateError(final_path_.string() + ": nothing was written");
   }
+  // From the first rename on, an interruption waits for the commit to end.
+  std::unique_lock<std::recursive_mutex> lock;
   if (kind_ == Kind::kFile) {
     FsyncPath(temp_path_, false);
+    lock = LockTemporaries();
     if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
       throw CantCreateError(final_path_.string() + ": cannot rename from " + temp_path_.string() +
                             ": " + ErrnoText());
@@ -336,6 +353,7 @@ void AtomicOutput::Commit() {
     const bool replacing = fs::symlink_status(final_path_, ec).type() != fs::file_type::not_found;
     // The folder may have changed since the constructor's check.
     if (replacing) CheckFolderMayBeReplaced(final_path_, owner_);
+    lock = LockTemporaries();
     if (!replacing) {
       if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
         throw CantCreateError(final_path_.string() + ": cannot rename from " + temp_path_.string() +
@@ -367,8 +385,10 @@ void AtomicOutput::Commit() {
                             ": " + ErrnoText());
     }
   }
-  FsyncPath(ParentOf(final_path_), true);
   committed_ = true;
+  ForgetTemporary(temp_path_);
+  lock.unlock();
+  FsyncPath(ParentOf(final_path_), true);
 }
 
 void WriteFileAtomically(const fs::path& path, std::string_view content) {

@@ -8,9 +8,12 @@
 // Temporary names are unique: `<name>.<6 random characters>.tmp`, created
 // with O_EXCL (a file) or mkdir (a folder), so they never collide with a
 // user's file or with another run writing the same output; only the
-// temporary the object itself created is ever removed. A process killed
-// (SIGKILL) while writing leaves its `<name>.XXXXXX.tmp` behind, never a
-// damaged final name; such leftovers may be deleted by hand.
+// temporary the object itself created is ever removed. A final name too
+// long for the suffix within 255 bytes is cut short in the temporary's name.
+// Every live temporary is registered (common/temporaries.h): interrupted by
+// SIGINT, SIGTERM or SIGHUP, a tool removes them before it dies. A process
+// killed by SIGKILL while writing leaves its `<name>.XXXXXX.tmp` behind,
+// never a damaged final name; such leftovers may be deleted by hand.
 //
 // An existing output folder is replaced only when it is empty or holds
 // nothing but an earlier output of the same tool (OutputFolderOwner below):

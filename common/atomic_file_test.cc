@@ -63,6 +63,24 @@ TEST(AtomicFile, WritesAndLeavesNoTemporary) {
   EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
 }
 
+// Issue 36: names of 245-255 bytes are legal; the temporary's suffix must
+// not make them fail with "File name too long".
+TEST(AtomicFile, LongestLegalNamesAreWritten) {
+  testing::TempDir dir;
+  for (const size_t length : {245u, 250u, 255u}) {
+    const std::string name = std::string(length - 4, 'n') + ".txt";
+    WriteFileAtomically(dir / name, "long\n");
+    EXPECT_EQ(ReadFileToString(dir / name), "long\n") << length;
+    WriteFileAtomically(dir / name, "again\n");  // Replaced, too.
+    EXPECT_EQ(ReadFileToString(dir / name), "again\n") << length;
+    const fs::path folder = dir / std::string(length, 'd');
+    WriteOwnOutput(folder, "one");
+    WriteOwnOutput(folder, "two");  // Exchanged with the old one.
+    EXPECT_EQ(ReadFileToString(folder / "result.txt"), "two") << length;
+  }
+  EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
+}
+
 TEST(AtomicFile, ReplacesExistingFileOnlyOnCommit) {
   testing::TempDir dir;
   WriteFileAtomically(dir / "a.txt", "old");

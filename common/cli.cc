@@ -4,12 +4,15 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <thread>
 #include <opencv2/core/utility.hpp>
 
 #include "common/errors.h"
 #include "common/progress.h"
+#include "common/temporaries.h"
 #include "common/version.h"
 
 namespace rrslam {
@@ -26,9 +29,64 @@ void InitLogging(int verbosity) {
                                      : spdlog::level::debug);
 }
 
+namespace {
+
+// 0 when everything printed on stdout has reached it; else kCantCreate with
+// a message (`> /dev/full`, a closed pipe's buffer): output that was lost is
+// not a success, be it a result, --help or --version.
+int StdoutStatus(const std::string& name) {
+  std::cout.flush();
+  if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    std::fprintf(stderr, "%s: error: cannot write to standard output\n", name.c_str());
+    return static_cast<int>(ExitCode::kCantCreate);
+  }
+  return 0;
+}
+
+// CLI11 reads an unsigned option with strtoull, which takes "-1" as
+// 18446744073709551615 (`rrslam-synth --seed -1`); every unsigned option of
+// `app` and its subcommands refuses a minus sign instead.
+void RefuseNegativeUnsigned(CLI::App* app) {
+  const CLI::Validator no_minus(
+      [](std::string& value) -> std::string {
+        const size_t first = value.find_first_not_of(" \t");
+        return first != std::string::npos && value[first] == '-' ? "must not be negative" : "";
+      },
+      "");
+  for (CLI::Option* option : app->get_options()) {
+    if (option->get_type_name() == "UINT") option->check(no_minus);
+  }
+  for (CLI::App* sub : app->get_subcommands([](CLI::App*) { return true; })) {
+    RefuseNegativeUnsigned(sub);
+  }
+}
+
+// Prints "<tool>: <kind>: <message>" and returns `code`; but while an
+// interruption removes the temporaries (which makes the tool's own writers
+// fail), waits for the process to die of the signal instead of reporting.
+int Fail(const std::string& name, ExitCode code, const char* message,
+         const char* kind = "error") {
+  while (Interrupted()) std::this_thread::sleep_for(std::chrono::seconds(1));
+  std::fprintf(stderr, "%s: %s: %s\n", name.c_str(), kind, message);
+  return static_cast<int>(code);
+}
+
+// With fallthrough, the common flags are accepted after a subcommand too
+// (`rrslam-vocab build ... --quiet`): options a subcommand does not know fall
+// through to the tool.
+void FallThrough(CLI::App* parent) {
+  for (CLI::App* sub : parent->get_subcommands([](CLI::App*) { return true; })) {
+    sub->fallthrough();
+    FallThrough(sub);
+  }
+}
+
+}  // namespace
+
 int RunTool(int argc, char** argv, const ToolInfo& info,
             const std::function<void(CLI::App&)>& add_options, const std::function<void()>& run) {
   const std::string name = "rrslam-" + info.stage;
+  RemoveTemporariesOnSignals();  // Before any thread is started.
   CLI::App app(info.description, name);
   app.footer(ExitCodeHelp());
   app.get_formatter()->column_width(40);
@@ -39,23 +97,18 @@ int RunTool(int argc, char** argv, const ToolInfo& info,
   app.set_version_flag("--version", std::string(name) + " " + kVersion);
   try {
     add_options(app);
-    // The common flags are accepted after a subcommand too
-    // (`rrslam-vocab build ... --quiet`): options a subcommand does not
-    // know fall through to the tool.
-    std::function<void(CLI::App*)> fall_through = [&](CLI::App* parent) {
-      for (CLI::App* sub : parent->get_subcommands([](CLI::App*) { return true; })) {
-        sub->fallthrough();
-        fall_through(sub);
-      }
-    };
-    fall_through(&app);
+    FallThrough(&app);
+    RefuseNegativeUnsigned(&app);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
+    const int code = app.exit(e);
+    return code != 0 ? code : StdoutStatus(name);
   } catch (const CLI::CallForAllHelp& e) {
-    return app.exit(e);
+    const int code = app.exit(e);
+    return code != 0 ? code : StdoutStatus(name);
   } catch (const CLI::CallForVersion& e) {
-    return app.exit(e);
+    const int code = app.exit(e);
+    return code != 0 ? code : StdoutStatus(name);
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "%s: error: %s\nRun with --help for usage.\n", name.c_str(), e.what());
     return static_cast<int>(ExitCode::kUsage);
@@ -67,26 +120,16 @@ int RunTool(int argc, char** argv, const ToolInfo& info,
   cv::redirectError([](int, const char*, const char*, const char*, int, void*) { return 0; });
   try {
     run();
-    // Results printed on stdout must have reached it (`> /dev/full`, a
-    // closed pipe's buffer): a run whose output was lost is not a success.
-    std::cout.flush();
-    if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout)) {
-      std::fprintf(stderr, "%s: error: cannot write to standard output\n", name.c_str());
-      return static_cast<int>(ExitCode::kCantCreate);
-    }
-    return 0;
+    while (Interrupted()) std::this_thread::sleep_for(std::chrono::seconds(1));
+    return StdoutStatus(name);
   } catch (const Error& e) {
-    std::fprintf(stderr, "%s: error: %s\n", name.c_str(), e.what());
-    return static_cast<int>(e.code());
+    return Fail(name, e.code(), e.what());
   } catch (const CLI::ParseError& e) {  // Raised by option checks inside run().
-    std::fprintf(stderr, "%s: error: %s\n", name.c_str(), e.what());
-    return static_cast<int>(ExitCode::kUsage);
+    return Fail(name, ExitCode::kUsage, e.what());
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "%s: error: out of memory\n", name.c_str());
-    return static_cast<int>(ExitCode::kSoftware);
+    return Fail(name, ExitCode::kSoftware, "out of memory");
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s: internal error: %s\n", name.c_str(), e.what());
-    return static_cast<int>(ExitCode::kSoftware);
+    return Fail(name, ExitCode::kSoftware, e.what(), "internal error");
   }
 }
 

@@ -329,12 +329,38 @@ TEST(Settings, RejectsYamlNestedTooDeep) {
     return "%YAML:1.0\nCamera.fx: " + std::string(levels - 1, '[') + "1" +
            std::string(levels - 1, ']') + "\n";
   };
-  EXPECT_NO_THROW(CheckYamlNesting(nested(kMaxYamlNesting), "s.yaml"));
-  EXPECT_THROW(CheckYamlNesting(nested(kMaxYamlNesting + 1), "s.yaml"), DataError);
+  EXPECT_NO_THROW(CheckYamlStructure(nested(kMaxYamlNesting), "s.yaml"));
+  EXPECT_THROW(CheckYamlStructure(nested(kMaxYamlNesting + 1), "s.yaml"), DataError);
   // Brackets in quoted strings and keys, and comments, do not nest.
-  EXPECT_NO_THROW(CheckYamlNesting("%YAML:1.0\nk[[: '" + std::string(200, '[') + "'\nc: [1, # " +
+  EXPECT_NO_THROW(CheckYamlStructure("%YAML:1.0\nk[[: '" + std::string(200, '[') + "'\nc: [1, # " +
                                        std::string(200, '{') + "\n 2]\n",
                                    "s.yaml"));
+}
+
+// Issue 36: what OpenCV's parser reads wrongly without a word is refused.
+TEST(Settings, RefusesDuplicateKeysAndIntegersThatWrap) {
+  const std::pair<std::string, std::string> cases[] = {
+      {"Camera.fx: 500\nCamera.fy: 500\nCamera.fx: 600\n",
+       "s.yaml: line 4: key 'Camera.fx' is given twice"},
+      {"ORBextractor.iniThFAST: 4294967316\n",
+       "s.yaml: line 2: integer 4294967316 does not fit in 32 bits"},
+      {"ORBextractor.iniThFAST: -2147483649\n",
+       "s.yaml: line 2: integer -2147483649 does not fit in 32 bits"},
+      {"Camera.fx: 500\nm: {a: 1, a: 2}\n", "s.yaml: line 3: key 'a' is given twice"},
+      {"Camera.fx: 500\nm: !!int 99999999999999999999\n",
+       "s.yaml: line 3: integer 99999999999999999999 does not fit in 32 bits"}};
+  for (const auto& [body, message] : cases) {
+    try {
+      (void)ParseSettings("%YAML:1.0\n" + body, "s.yaml");
+      FAIL() << "accepted: " << body;
+    } catch (const DataError& e) {
+      EXPECT_EQ(std::string(e.what()), message);
+    }
+  }
+  // Equal keys in distinct maps, and the 32-bit limits themselves, pass.
+  EXPECT_NO_THROW(CheckYamlStructure(
+      "%YAML:1.0\na: {k: 2147483647}\nb: {k: -2147483648}\nc:\n  - {k: 1}\n  - {k: 2}\n",
+      "s.yaml"));
 }
 
 }  // namespace

@@ -76,4 +76,10 @@ std::string Hex64(uint64_t value) {
   return buffer;
 }
 
+std::string Format(const char* format, double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), format, value);
+  return buffer;
+}
+
 }  // namespace rrslam

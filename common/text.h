@@ -30,4 +30,8 @@ std::string ShellQuote(std::string_view text);
 // `value` as 16 lowercase hex digits (checksums and hashes in reports).
 std::string Hex64(uint64_t value);
 
+// One number through a printf format taking one double ("%g", "%.6f"), for
+// messages and reports; at most 63 characters (a longer result is cut).
+std::string Format(const char* format, double value);
+
 }  // namespace rrslam

@@ -1,9 +1,12 @@
 #include "common/yaml_text.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <climits>
 #include <cstdlib>
 #include <exception>
 #include <regex>
+#include <unordered_set>
 #include <vector>
 
 #include "common/errors.h"
@@ -72,6 +75,9 @@ class YamlNestingScanner {
     char kind = 0;        // '[' or '{' (flow), '-' or ':' (block sequence or map).
     int indent = 0;       // Flow: min_indent of its elements; block: its column.
     size_t elements = 0;  // Flow: elements read so far.
+    // Maps: the keys read so far, as written (OpenCV keeps the first of two
+    // equal keys and drops the second without a word).
+    std::unordered_set<std::string_view> keys;
   };
 
   static bool Printable(char c) { return static_cast<unsigned char>(c) >= ' '; }
@@ -127,8 +133,13 @@ class YamlNestingScanner {
     }
   }
 
-  // YAMLParser::parseKey: the key runs to the first ':' on the line.
-  void ParseKey() {
+  [[noreturn]] void Fail(const std::string& what) const {
+    throw DataError(name_ + ": line " + std::to_string(line_) + ": " + what);
+  }
+
+  // YAMLParser::parseKey: the key runs to the first ':' on the line. A key
+  // given twice in one map is refused.
+  void ParseKey(Collection* map) {
     if (At(pos_) == '-') throw ParserStops();
     size_t end = pos_;
     while (Printable(At(end)) && At(end) != ':') ++end;
@@ -136,14 +147,15 @@ class YamlNestingScanner {
     size_t last = end;
     while (last > pos_ && At(last - 1) == ' ') --last;
     if (last == pos_) throw ParserStops();  // An empty key.
+    const std::string_view key = text_.substr(pos_, last - pos_);
+    if (!map->keys.insert(key).second) Fail("key '" + std::string(key) + "' is given twice");
     pos_ = end + 1;
   }
 
   void Push(const Collection& c) {
     stack_.push_back(c);
     if (static_cast<int>(stack_.size()) > kMaxYamlNesting) {
-      throw DataError(name_ + ": line " + std::to_string(line_) + ": YAML nested deeper than " +
-                      std::to_string(kMaxYamlNesting) + " levels");
+      Fail("YAML nested deeper than " + std::to_string(kMaxYamlNesting) + " levels");
     }
   }
 
@@ -165,10 +177,7 @@ class YamlNestingScanner {
     enum { kNone, kString, kInt, kReal } type = kNone;
     if (c == '!') {
       bool user = false;
-      if (d == '<') {
-        throw DataError(name_ + ": line " + std::to_string(line_) +
-                        ": YAML tags of the form !<...> are not supported");
-      }
+      if (d == '<') Fail("YAML tags of the form !<...> are not supported");
       if (d == '!' || d == '^') {
         ++pos_;
         user = true;
@@ -180,10 +189,7 @@ class YamlNestingScanner {
       if (!user && tag == "str") type = kString;
       if (!user && tag == "int") type = kInt;
       if (!user && tag == "float") type = kReal;
-      if (user && tag == "binary") {
-        throw DataError(name_ + ": line " + std::to_string(line_) +
-                        ": binary YAML data (!!binary) is not supported");
-      }
+      if (user && tag == "binary") Fail("binary YAML data (!!binary) is not supported");
       d = At(end);  // OpenCV keeps this stale `d` for the number test below.
       pos_ = end;
       SkipSpaces(min_indent);
@@ -199,7 +205,13 @@ class YamlNestingScanner {
       if (type == kReal || (type != kInt && (At(end) == '.' || At(end) == 'e'))) {
         std::strtod(rest.c_str(), &stop);
       } else {
-        std::strtol(rest.c_str(), &stop, 0);
+        // OpenCV keeps an int: a larger value would wrap (4294967316 -> 20).
+        errno = 0;
+        const long value = std::strtol(rest.c_str(), &stop, 0);
+        if (stop != rest.c_str() && (errno == ERANGE || value < INT_MIN || value > INT_MAX)) {
+          Fail("integer " + rest.substr(0, static_cast<size_t>(stop - rest.c_str())) +
+               " does not fit in 32 bits");
+        }
       }
       if (stop == rest.c_str()) throw ParserStops();  // "Invalid numeric value".
       pos_ += static_cast<size_t>(stop - rest.c_str());
@@ -210,12 +222,12 @@ class YamlNestingScanner {
       return false;
     }
     if (c == '[' || c == '{') {
-      Push({true, c, min_indent + !parent_flow, 0});
+      Push({true, c, min_indent + !parent_flow, 0, {}});
       ++pos_;
       return true;
     }
     if (!parent_flow && c == '-') {
-      Push({false, '-', Column(pos_), 0});
+      Push({false, '-', Column(pos_), 0, {}});
       return true;
     }
     if (!parent_flow && (c == '?' || c == '|' || c == '>')) throw ParserStops();
@@ -234,7 +246,7 @@ class YamlNestingScanner {
       pos_ = end;
       return false;
     }
-    Push({false, ':', Column(pos_), 0});
+    Push({false, ':', Column(pos_), 0, {}});
     return true;
   }
 
@@ -295,7 +307,7 @@ class YamlNestingScanner {
           SkipSpaces(top.indent);
         }
         if (top.kind == '{') {
-          ParseKey();
+          ParseKey(&top);
           SkipSpaces(top.indent);
         } else if (At(pos_) == ']') {
           stack_.pop_back();  // "[a, ]": the ']' is left for the parent.
@@ -318,7 +330,7 @@ class YamlNestingScanner {
         }
       }
       if (top.kind == ':') {
-        ParseKey();
+        ParseKey(&top);
       } else if (At(pos_++) != '-') {
         throw ParserStops();
       }
@@ -372,14 +384,14 @@ class YamlNestingScanner {
 
 }  // namespace
 
-void CheckYamlNesting(std::string_view text, const std::string& name) {
+void CheckYamlStructure(std::string_view text, const std::string& name) {
   YamlNestingScanner(text, name).Run();
 }
 
 cv::FileStorage ParseYamlText(const std::string& text, const std::string& name,
                               const std::string& shape) {
   CheckYamlIsOneMap(text, name, shape);
-  CheckYamlNesting(text, name);
+  CheckYamlStructure(text, name);
   cv::FileStorage fs;
   try {
     fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);

@@ -33,19 +33,26 @@ void CheckYamlIsOneMap(std::string_view text, const std::string& name, const std
 // thread's smaller stack far sooner; rrslam's files nest 4 levels at most.
 inline constexpr int kMaxYamlNesting = 64;
 
-// Throws DataError "<name>: line N: YAML nested deeper than 64 levels" when
-// OpenCV's parser would be inside more than kMaxYamlNesting collections at
-// once on `text` (the top-level map is one; flow '[' and '{', block
-// sequences and maps, nested across lines or on one line as "a: b: 1" and
-// "- - 1"). The depth is found by following the parser's own rules (keys,
-// quoted strings, comments, indentation) without recursing; where the text
-// would stop the parser with a syntax error, what follows is not looked at.
-// Also throws DataError for the two constructs the count does not follow:
-// "!!binary" data and "!<...>" tags (no rrslam file holds them).
-void CheckYamlNesting(std::string_view text, const std::string& name);
+// Throws DataError "<name>: line N: <what>" where OpenCV's parser would not
+// fail but read the text wrongly or dangerously:
+//   - "YAML nested deeper than 64 levels" when
+//     the parser would be inside more than kMaxYamlNesting collections at
+//     once on `text` (the top-level map is one; flow '[' and '{', block
+//     sequences and maps, nested across lines or on one line as "a: b: 1"
+//     and "- - 1"), and overflow its stack;
+//   - "key 'k' is given twice": a map holds one key twice (OpenCV keeps the
+//     first value and drops the second without a word);
+//   - "integer 4294967316 does not fit in 32 bits": OpenCV stores an int,
+//     which would wrap;
+//   - "!!binary" data and "!<...>" tags, which the scan does not follow (no
+//     rrslam file holds them).
+// The text is scanned by following the parser's own rules (keys, quoted
+// strings, comments, indentation) without recursing; where the text would
+// stop the parser with a syntax error, what follows is not looked at.
+void CheckYamlStructure(std::string_view text, const std::string& name);
 
 // Parses `text` (held in memory) as YAML, after CheckYamlIsOneMap and
-// CheckYamlNesting. Throws a one-line DataError
+// CheckYamlStructure. Throws a one-line DataError
 // "<name>: not a valid YAML file: line N: <what>" when OpenCV's parser
 // fails, including on the exceptions other than cv::Exception it lets escape
 // (std::length_error on an empty key in a flow map, "{ :a: 1 }"; found by

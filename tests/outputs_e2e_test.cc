@@ -113,5 +113,30 @@ TEST_F(OutputsTest, ALostStdoutIsAnErrorAndCommonFlagsFollowSubcommands) {
             std::string::npos);
 }
 
+// Issue 36: --help and --version whose text is lost exit 73 as any other
+// stdout write; an unsigned option refuses a minus sign instead of wrapping.
+TEST_F(OutputsTest, HelpIntoAFullDiskFailsAndUnsignedOptionsRefuseMinus) {
+  for (const char* stage :
+       {"extract", "cluster", "vocab", "track", "mapstore", "render", "eval", "synth"}) {
+    for (const char* flag : {"--help", "--version"}) {
+      const std::string tool = Quote(testing::BinDir() / (std::string("rrslam-") + stage));
+      const auto r = testing::RunCommand("(" + tool + " " + flag + " 2> " +
+                                         Quote(dir_ / "stderr.txt") + " > /dev/full)");
+      EXPECT_EQ(r.exit_code, 73) << stage << " " << flag;
+      EXPECT_NE(ReadFileToString(dir_ / "stderr.txt").find("cannot write to standard output"),
+                std::string::npos)
+          << stage << " " << flag;
+    }
+  }
+  auto r = RunTool("synth", "--seed -1 --out " + Quote(dir_ / "s"));
+  EXPECT_EQ(r.exit_code, 64) << r.output;
+  EXPECT_NE(r.output.find("--seed: must not be negative"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir_ / "s"));
+  r = RunTool("cluster", "--features " + Quote(dir_ / "f.h5") + " --out " + Quote(dir_ / "t.h5") +
+                             " --max-descriptors -5");
+  EXPECT_EQ(r.exit_code, 64) << r.output;
+  EXPECT_NE(r.output.find("must not be negative"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace rrslam

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <numeric>
 
+#include "common/text.h"
+
 namespace rrslam {
 
 Trajectory DistinctByTimestamp(const Trajectory& trajectory, size_t* dropped) {
@@ -51,12 +53,6 @@ std::vector<double> Timestamps(const Trajectory& trajectory) {
   std::vector<double> stamps(trajectory.size());
   for (size_t i = 0; i < trajectory.size(); ++i) stamps[i] = trajectory[i].timestamp;
   return stamps;
-}
-
-std::string Format(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), format, value);
-  return buffer;
 }
 
 bool CheckOffsetAndScale(double offset, double scale, std::string* why) {

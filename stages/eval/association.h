@@ -30,7 +30,4 @@ std::vector<double> Timestamps(const Trajectory& trajectory);
 // both ATE and RPE apply before pairing; names the first violation in `why`.
 bool CheckOffsetAndScale(double offset, double scale, std::string* why);
 
-// One number through a printf format (for messages and reports).
-std::string Format(const char* format, double value);
-
 }  // namespace rrslam

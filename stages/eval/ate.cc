@@ -6,6 +6,7 @@
 
 #include "common/dataset.h"
 #include "common/errors.h"
+#include "common/text.h"
 #include "stages/eval/alignment.h"
 #include "stages/eval/association.h"
 

@@ -63,14 +63,16 @@ std::string Lowercase(std::string text) {
   return text;
 }
 
-// Prefixes a data error of the computation with the files it concerns (and
-// `role`, when given, e.g. the flag that named `est`).
+// Prefixes a data or algorithm error of the computation with the files it
+// concerns (and `role`, when given, e.g. the flag that named `est`).
 template <typename Fn>
 auto WithFiles(const fs::path& gt, const fs::path& est, Fn&& fn, const std::string& role = "") {
   try {
     return fn();
   } catch (const DataError& e) {
     throw DataError(role + est.string() + " against " + gt.string() + ": " + e.what());
+  } catch (const AlgorithmError& e) {
+    throw AlgorithmError(role + est.string() + " against " + gt.string() + ": " + e.what());
   }
 }
 

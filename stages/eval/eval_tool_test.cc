@@ -161,6 +161,15 @@ TEST_F(EvalTool, RpeTextAndJson) {
   EXPECT_EQ(json["options"]["error_form"], "paper");
   EXPECT_EQ(json["pairs"], 150 - 1 - 15);
   EXPECT_LT(json["translational_error_m"]["max"].get<double>(), 1e-6);
+  // A delta longer than the sequence computes nothing: 75, one line naming
+  // the files, no report (issue 36).
+  for (const char* delta : {"--delta 1000 --delta-unit s", "--delta 150 --delta-unit f"}) {
+    r = RunTool("eval", "rpe " + Inputs() + " " + delta + " --out " + Quote(dir_ / "no.txt"));
+    EXPECT_EQ(r.exit_code, 75) << r.output;
+    EXPECT_NE(r.output.find("leaves no pose pair"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(est_.string()), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir_ / "no.txt"));
+  }
 }
 
 TEST_F(EvalTool, MissingInputIs66) {

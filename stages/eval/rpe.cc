@@ -5,6 +5,7 @@
 
 #include "common/errors.h"
 #include "common/geometry.h"
+#include "common/text.h"
 #include "stages/eval/association.h"
 
 namespace rrslam {
@@ -118,7 +119,8 @@ RpeResult ComputeRpe(const Trajectory& gt_input, const Trajectory& est_input,
   }
   if (result.pairs.empty()) {
     if (result.skipped_pairs == 0) {
-      throw DataError("a delta of " + Format("%g", options.delta) + " " +
+      // The files are fine; the evaluation asked for has nothing to measure.
+      throw AlgorithmError("a delta of " + Format("%g", options.delta) + " " +
                       (options.delta_unit == DeltaUnit::kFrames ? "frame(s)" : "s") +
                       " leaves no pose pair in an estimate of " + std::to_string(est.size()) +
                       " poses spanning " + Format("%.6f", est_stamps.back() - est_stamps.front()) +

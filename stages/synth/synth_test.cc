@@ -12,6 +12,7 @@
 #include "common/errors.h"
 #include "common/settings.h"
 #include "common/testing.h"
+#include "common/text.h"
 #include "stages/synth/renderer.h"
 #include "stages/synth/scene.h"
 
@@ -610,6 +611,30 @@ TEST_F(SynthTool, RefusesAFolderWithOtherFilesAndReplacesItsOwnOutput) {
   EXPECT_EQ(result.exit_code, 73) << result.output;
   EXPECT_NE(result.output.find("(rgb/mine.png)"), std::string::npos) << result.output;
   EXPECT_EQ(ReadFileToString(seq / "rgb" / "mine.png"), "x");
+}
+
+// Issue 36: SIGTERM or SIGINT while writing removes the temporary folder;
+// the process dies of the signal (143, 130 in a shell) and an earlier
+// output under --out is kept as it was.
+TEST_F(SynthTool, InterruptionRemovesTheTemporaryFolder) {
+  const fs::path seq = dir_ / "seq";
+  ASSERT_EQ(testing::RunTool("synth", "--out " + seq.string() + small_).exit_code, 0);
+  const std::string before = ReadFileToString(seq / "groundtruth.txt");
+  const std::string tool = testing::Quote(testing::BinDir() / "rrslam-synth");
+  for (const auto& [signal, status] : {std::pair{"TERM", 143}, std::pair{"INT", 130}}) {
+    // Job control on (set -m), so that the background job does not ignore SIGINT.
+    const std::string script =
+        "set -m; " + tool + " --out " + testing::Quote(seq) +
+        " --width 96 --height 72 --frames 5000 --texel-size 0.01 -q --seed 9 & pid=$!; "
+        "for i in $(seq 1200); do ls " + testing::Quote(dir_.path()) +
+        " | grep -q 'tmp$' && break; sleep 0.05; done; sleep 0.3; kill -" + signal +
+        " $pid; wait $pid; echo status $?";
+    const auto r = testing::RunCommand("bash -c " + ShellQuote(script));
+    EXPECT_NE(r.output.find("status " + std::to_string(status)), std::string::npos)
+        << signal << ": " << r.output;
+    EXPECT_EQ(testing::TemporaryLeftovers(dir_), std::vector<std::string>{}) << signal;
+    EXPECT_EQ(ReadFileToString(seq / "groundtruth.txt"), before) << signal;
+  }
 }
 
 TEST_F(SynthTool, HelpListsEveryFlagWithItsDefault) {

@@ -148,11 +148,17 @@ void CheckFeaturesSettings(const std::string& name, const Settings& file, const 
       {"DepthMapFactor", file.depth_map_factor, s.depth_map_factor},
       {"ORBextractor.scaleFactor", file.orb.scale_factor, s.orb.scale_factor},
       {"ORBextractor.nLevels", double(file.orb.n_levels), double(s.orb.n_levels)},
+      {"ORBextractor.nFeatures", double(file.orb.n_features), double(s.orb.n_features)},
+      {"ORBextractor.iniThFAST", double(file.orb.ini_th_fast), double(s.orb.ini_th_fast)},
+      {"ORBextractor.minThFAST", double(file.orb.min_th_fast), double(s.orb.min_th_fast)},
+      {"Camera.width", double(file.width), double(s.width)},
+      {"Camera.height", double(file.height), double(s.height)},
+      {"Camera.RGB", double(file.rgb_order), double(s.rgb_order)},
   };
   if (const SettingPair* d = FirstDifferentSetting(fields)) {
-    throw DataError(name + ": extracted with " + d->key + " = " + std::to_string(d->recorded) +
+    throw DataError(name + ": extracted with " + d->key + " = " + Format("%.9g", d->recorded) +
                     " but the tracking settings " + s.source.string() + " give " +
-                    std::to_string(d->given));
+                    Format("%.9g", d->given));
   }
 }
 

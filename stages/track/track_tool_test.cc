@@ -248,6 +248,17 @@ TEST_F(TrackToolTest, FeaturesFileMustMatchSequenceAndSettings) {
   EXPECT_EQ(r.exit_code, 65);
   EXPECT_NE(r.output.find("Camera.fx"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out()));
+  // The extractor's own settings too (issue 36: nFeatures 999 was accepted).
+  other = testing::TestSettings();
+  other.orb.n_features -= 1;
+  write_features(dir_ / "other_orb.h5", FormatSettings(other), rgb0);
+  r = Track(Seq(), SettingsFile(), Voc(), "--features " + (dir_ / "other_orb.h5").string());
+  EXPECT_EQ(r.exit_code, 65);
+  EXPECT_NE(r.output.find("extracted with ORBextractor.nFeatures = " +
+                          std::to_string(other.orb.n_features) + " but"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(out()));
 
   // Matching frames and settings are accepted (tracking then fails to
   // initialize: ten keypoints without depth).

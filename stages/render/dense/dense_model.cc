@@ -24,6 +24,7 @@
 #include "common/image_io.h"
 #include "common/json_text.h"
 #include "common/output_path.h"
+#include "common/text.h"
 #include "stages/render/image_file.h"
 #include "stages/render/map_scene.h"
 
@@ -60,12 +61,6 @@ std::string Lowercase(std::string text) {
   std::transform(text.begin(), text.end(), text.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return text;
-}
-
-std::string Format(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), format, value);
-  return buffer;
 }
 
 // Sets OpenCV's worker threads for a scope.
