@@ -6,6 +6,7 @@
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
+#include "common/path_check.h"
 #include "common/image_io.h"
 #include "common/text.h"
 
@@ -59,7 +60,7 @@ std::vector<std::pair<double, std::string>> ParseTimestampList(std::string_view 
     if (fields.size() < 2) {
       throw DataError(source + " line " + std::to_string(line) + ": expected 'timestamp filename'");
     }
-    list.emplace_back(ParseDouble(fields[0], source, line), std::string(fields[1]));
+    list.emplace_back(ParseTimestamp(fields[0], source, line), std::string(fields[1]));
   });
   return list;
 }
@@ -73,9 +74,9 @@ std::vector<RgbdFrameRef> ParseAssociations(std::string_view text, const fs::pat
                       ": expected 'rgb_timestamp rgb_path depth_timestamp depth_path'");
     }
     RgbdFrameRef f;
-    f.rgb_timestamp = ParseDouble(fields[0], source, line);
+    f.rgb_timestamp = ParseTimestamp(fields[0], source, line);
     f.rgb_path = dir / std::string(fields[1]);
-    f.depth_timestamp = ParseDouble(fields[2], source, line);
+    f.depth_timestamp = ParseTimestamp(fields[2], source, line);
     f.depth_path = dir / std::string(fields[3]);
     frames.push_back(std::move(f));
   });
@@ -84,7 +85,7 @@ std::vector<RgbdFrameRef> ParseAssociations(std::string_view text, const fs::pat
 
 RgbdSequence RgbdSequence::Open(const fs::path& dir, const SequenceOptions& options) {
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw NoInputError(dir.string() + ": no such sequence folder");
+  RequireFolder(dir, "sequence folder");
   RgbdSequence seq;
   seq.dir_ = dir;
   seq.max_image_size_ = options.max_image_size;
@@ -133,10 +134,8 @@ RgbdSequence RgbdSequence::Open(const fs::path& dir, const SequenceOptions& opti
   }
   for (const RgbdFrameRef& f : seq.frames_) {
     for (const fs::path& image : {f.rgb_path, f.depth_path}) {
-      if (fs::is_regular_file(image, ec)) continue;
-      throw DataError(image.string() + (fs::is_directory(image, ec)
-                                            ? ": listed image is a folder, not an image file"
-                                            : ": listed image does not exist"));
+      const std::string why = WhyNotAFile(image);
+      if (!why.empty()) throw DataError(image.string() + ": listed image " + why);
     }
   }
   const fs::path gt = dir / "groundtruth.txt";

@@ -7,6 +7,7 @@
 #include <system_error>
 
 #include "common/json_text.h"
+#include "common/path_check.h"
 
 namespace rrslam {
 
@@ -95,10 +96,7 @@ H5FormatInfo ReadFormatAttributes(const H5::H5File& file) {
 
 H5::H5File OpenH5File(const std::filesystem::path& path, const FormatSpec& spec,
                       H5FormatInfo* info) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw NoInputError(path.string() + ": no such file");
-  }
+  RequireFile(path, "file");
   if (H5::H5File::isHdf5(path.string()) <= 0) {
     throw DataError(path.string() + ": not an HDF5 file (expected " + spec.name + ")");
   }

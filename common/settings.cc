@@ -9,6 +9,8 @@
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
+#include "common/path_check.h"
+#include "common/text.h"
 #include "common/yaml_text.h"
 
 namespace rrslam {
@@ -76,14 +78,9 @@ void ReadDepthNoise(const cv::FileStorage& fs, const std::string& path, DepthNoi
   }
 }
 
-// A settings file's text; NoInputError when it is missing or a folder.
+// A settings file's text; NoInputError when it is not a regular file.
 std::string ReadSettingsText(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw NoInputError(path.string() + (std::filesystem::is_directory(path, ec)
-                                            ? ": is a folder, not a settings file"
-                                            : ": no such settings file"));
-  }
+  RequireFile(path, "settings file");
   return ReadFileToString(path);
 }
 
@@ -94,12 +91,6 @@ cv::FileStorage OpenSettingsYaml(const std::string& text, const std::string& nam
                        "settings are one YAML document holding a map of keys at column 0");
 }
 
-std::string Fmt(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), format, value);
-  return buffer;
-}
-
 }  // namespace
 
 bool Settings::Check(std::string* why) const {
@@ -108,8 +99,8 @@ bool Settings::Check(std::string* why) const {
     return false;
   };
   auto positive = [](double v) { return std::isfinite(v) && v > 0; };
-  if (!positive(fx)) return fail("Camera.fx = " + Fmt("%g", fx) + "; must be > 0");
-  if (!positive(fy)) return fail("Camera.fy = " + Fmt("%g", fy) + "; must be > 0");
+  if (!positive(fx)) return fail("Camera.fx = " + Format("%g", fx) + "; must be > 0");
+  if (!positive(fy)) return fail("Camera.fy = " + Format("%g", fy) + "; must be > 0");
   if (!std::isfinite(cx)) return fail("Camera.cx is not finite");
   if (!std::isfinite(cy)) return fail("Camera.cy is not finite");
   for (double k : {distortion.k1, distortion.k2, distortion.p1, distortion.p2, distortion.k3}) {
@@ -119,14 +110,14 @@ bool Settings::Check(std::string* why) const {
     return fail("Camera.width = " + std::to_string(width) + "; must be in [0, 100000]");
   if (height < 0 || height > 100000)
     return fail("Camera.height = " + std::to_string(height) + "; must be in [0, 100000]");
-  if (!positive(fps)) return fail("Camera.fps = " + Fmt("%g", fps) + "; must be > 0");
-  if (!positive(bf)) return fail("Camera.bf = " + Fmt("%g", bf) + "; must be > 0");
-  if (!positive(th_depth)) return fail("ThDepth = " + Fmt("%g", th_depth) + "; must be > 0");
+  if (!positive(fps)) return fail("Camera.fps = " + Format("%g", fps) + "; must be > 0");
+  if (!positive(bf)) return fail("Camera.bf = " + Format("%g", bf) + "; must be > 0");
+  if (!positive(th_depth)) return fail("ThDepth = " + Format("%g", th_depth) + "; must be > 0");
   if (depth_noise.model == DepthNoise::Model::kQuadratic) {
     for (const auto& [key, value] : {std::pair{"DepthNoise.k2", depth_noise.k2},
                                      {"DepthNoise.sampling", depth_noise.sampling}}) {
       if (!std::isfinite(value) || value < 0) {
-        return fail(std::string(key) + " = " + Fmt("%g", value) + "; must be >= 0");
+        return fail(std::string(key) + " = " + Format("%g", value) + "; must be >= 0");
       }
     }
     if (!(depth_noise.DisparitySigma(bf) > 0)) {
@@ -136,14 +127,14 @@ bool Settings::Check(std::string* why) const {
     }
   }
   if (!positive(depth_map_factor)) {
-    return fail("DepthMapFactor = " + Fmt("%g", depth_map_factor) + "; must be > 0");
+    return fail("DepthMapFactor = " + Format("%g", depth_map_factor) + "; must be > 0");
   }
   if (orb.n_features < 1 || orb.n_features > 100000) {
     return fail("ORBextractor.nFeatures = " + std::to_string(orb.n_features) +
                 "; must be in [1, 100000]");
   }
   if (!(orb.scale_factor > 1.0 && orb.scale_factor <= 4.0)) {
-    return fail("ORBextractor.scaleFactor = " + Fmt("%g", orb.scale_factor) +
+    return fail("ORBextractor.scaleFactor = " + Format("%g", orb.scale_factor) +
                 "; must be in (1, 4]");
   }
   if (orb.n_levels < 1 || orb.n_levels > 16) {
@@ -228,7 +219,7 @@ Viewpoint ParseViewpoint(const std::string& text, const std::string& name) {
     throw DataError(name + ": malformed settings value");
   }
   if (!(v.f > 0))
-    throw DataError(name + ": Viewer.ViewpointF = " + Fmt("%g", v.f) + "; must be > 0");
+    throw DataError(name + ": Viewer.ViewpointF = " + Format("%g", v.f) + "; must be > 0");
   if (v.x == 0 && v.y == 0 && v.z == 0) {
     throw DataError(name + ": Viewer.ViewpointX/Y/Z is the origin, which the view looks at");
   }
@@ -239,7 +230,7 @@ std::string FormatSettings(const Settings& s) {
   std::ostringstream out;
   // -0 is written as 0: OpenCV reads "-0" as the integer 0, so the text
   // would not read back to itself (found by common/fuzz/settings_fuzzer.cc).
-  auto num = [](double v) { return Fmt("%.9g", v == 0 ? 0.0 : v); };
+  auto num = [](double v) { return Format("%.9g", v == 0 ? 0.0 : v); };
   out << "%YAML:1.0\n"
       << "# Camera and ORB parameters in the settings layout of ORB-SLAM2's RGB-D examples.\n"
       << "Camera.fx: " << num(s.fx) << "\n"

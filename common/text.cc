@@ -47,6 +47,16 @@ double ParseDouble(std::string_view field, const std::string& source, int line) 
   return value;
 }
 
+double ParseTimestamp(std::string_view field, const std::string& source, int line) {
+  const double value = ParseDouble(field, source, line);
+  if (std::fabs(value) > kMaxTimestamp) {
+    throw DataError(source + " line " + std::to_string(line) + ": timestamp " +
+                    Format("%g", value) + " s is out of range (seconds since 1970 expected, " +
+                    "at most " + Format("%g", kMaxTimestamp) + ")");
+  }
+  return value;
+}
+
 long long ParseInteger(std::string_view field, const std::string& source, int line) {
   long long value = 0;
   const auto [ptr, ec] = std::from_chars(field.data(), field.data() + field.size(), value);

@@ -23,6 +23,16 @@ void ForEachDataLine(
 double ParseDouble(std::string_view field, const std::string& source, int line);
 long long ParseInteger(std::string_view field, const std::string& source, int line);
 
+// Largest timestamp magnitude ParseTimestamp accepts, in seconds (the year
+// 5138). TUM files give seconds since 1970 (1.3e9); a larger value is another
+// unit (nanoseconds: 1.3e18, where a double no longer holds milliseconds) or
+// a damaged file, and would print as hundreds of digits in "%f" outputs.
+inline constexpr double kMaxTimestamp = 1e11;
+
+// ParseDouble for a timestamp in seconds: also throws DataError "<source>
+// line N: timestamp 1e+300 s is out of range ..." beyond kMaxTimestamp.
+double ParseTimestamp(std::string_view field, const std::string& source, int line);
+
 // `text` as one POSIX shell word: in single quotes, each embedded single quote
 // written as '\'' (for command lines handed to std::system / popen).
 std::string ShellQuote(std::string_view text);

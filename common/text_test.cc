@@ -39,6 +39,27 @@ TEST(ParseNumbers, StrictWholeField) {
   }
 }
 
+// Issue 36: a timestamp of 1e300 was printed as a 300-digit number.
+TEST(ParseNumbers, TimestampsAreSecondsWithinRange) {
+  EXPECT_DOUBLE_EQ(ParseTimestamp("1305031453.359684", "t", 1), 1305031453.359684);
+  EXPECT_DOUBLE_EQ(ParseTimestamp("-1e11", "t", 1), -1e11);
+  try {
+    ParseTimestamp("1e300", "rgb.txt", 4);
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_STREQ(e.what(),
+                 "rgb.txt line 4: timestamp 1e+300 s is out of range (seconds since 1970 "
+                 "expected, at most 1e+11)");
+  }
+  EXPECT_THROW(ParseTimestamp("1305031453359684000", "t", 1), DataError);  // Nanoseconds.
+}
+
+TEST(Format, OneNumberThroughAPrintfFormat) {
+  EXPECT_EQ(Format("%g", 0.5), "0.5");
+  EXPECT_EQ(Format("%.3f", 2.0), "2.000");
+  EXPECT_EQ(Format("%f", 1e300).size(), 63u);  // Cut to the buffer, never overflowing it.
+}
+
 TEST(ShellQuoteTest, QuotesOneWordThroughTheShell) {
   EXPECT_EQ(ShellQuote("a b"), "'a b'");
   EXPECT_EQ(ShellQuote("it's"), "'it'\\''s'");

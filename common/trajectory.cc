@@ -19,7 +19,8 @@ Trajectory ParseTumTrajectory(const std::string& text, const std::string& source
                       std::to_string(fields.size()));
     }
     double v[8];
-    for (int i = 0; i < 8; ++i) v[i] = ParseDouble(fields[i], source, line);
+    v[0] = ParseTimestamp(fields[0], source, line);
+    for (int i = 1; i < 8; ++i) v[i] = ParseDouble(fields[i], source, line);
     Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     if (q.norm() < 1e-9) {
       throw DataError(source + " line " + std::to_string(line) + ": zero quaternion");

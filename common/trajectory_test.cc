@@ -7,6 +7,7 @@
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
+#include "common/text.h"
 #include "common/testing.h"
 
 namespace rrslam {
@@ -78,17 +79,20 @@ TEST(Trajectory, ReadsSharedGroundTruth) {
 // was cut, losing its newline and fields, and did not read back.
 TEST(Trajectory, LongLinesAreWrittenWhole) {
   Trajectory t(2);
-  t[0].timestamp = 1e300;
+  t[0].timestamp = -kMaxTimestamp;
   t[0].T_world_cam.translation = {-1e300, 2.5, 1e250};
   t[1].timestamp = 2;
   const std::string text = FormatTumTrajectory(t);
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 2) << text;
   const Trajectory r = ParseTumTrajectory(text, "t.txt");
   ASSERT_EQ(r.size(), 2u);
-  EXPECT_EQ(r[0].timestamp, 1e300);
+  EXPECT_EQ(r[0].timestamp, -kMaxTimestamp);
   EXPECT_EQ(r[0].T_world_cam.translation.x(), -1e300);
   EXPECT_EQ(r[1].timestamp, 2);
   EXPECT_EQ(FormatTumTrajectory(r), text);
+  // A timestamp beyond is refused (issue 36), not written as 300 digits.
+  t[0].timestamp = 1e300;
+  EXPECT_THROW(ParseTumTrajectory(FormatTumTrajectory(t), "t.txt"), DataError);
 }
 
 // Found with common/fuzz/trajectory_fuzzer.cc's unit-quaternion property:

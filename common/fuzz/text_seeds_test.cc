@@ -2,7 +2,9 @@
 // by code (no real data): fuzz/corpus/settings, tum_lists and trajectory.
 //
 // Each test writes its seeds and checks that every one is accepted by its
-// reader (a seed that is rejected teaches the fuzzer little). With
+// reader (a seed that is rejected teaches the fuzzer little), except the
+// settings seeds made to reach one of ParseYamlText's refusals (issue 36),
+// which check that they are refused by that check. With
 // RRSLAM_WRITE_FUZZ_SEEDS=<dir> the seeds go to <dir>/corpus/<name> (to
 // regenerate the committed seeds, see `make fuzz-seeds`:
 //   RRSLAM_WRITE_FUZZ_SEEDS=common/fuzz build/tests/common_text_seeds
@@ -15,9 +17,11 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/dataset.h"
+#include "common/errors.h"
 #include "common/geometry.h"
 #include "common/settings.h"
 #include "common/testing.h"
@@ -73,21 +77,60 @@ TEST(TextSeeds, Settings) {
       "Viewer.PointSize: 2\nViewer.CameraSize: 0.08\nViewer.CameraLineWidth: 3\n"
       "Viewer.ViewpointX: 0\nViewer.ViewpointY: -0.7\nViewer.ViewpointZ: -1.8\n"
       "Viewer.ViewpointF: 500\n";
+  // Issue 36's checks in ParseYamlText (common/yaml_text.h), reached from
+  // both sides: a key "Nested" holding collections to a depth of 60 (passes)
+  // and 70 (over kMaxYamlNesting = 64; the top-level map counts as one), in
+  // flow style ('[' and "{a: " in turn) and block style (one more indented
+  // map per line); a key given twice; an integer OpenCV would wrap to 20.
+  const auto flow = [&](int levels) {
+    std::string open, close;
+    for (int i = 0; i < levels - 1; ++i) {
+      open += i % 2 == 0 ? "[" : "{a: ";
+      close = (i % 2 == 0 ? "]" : "}") + close;
+    }
+    return intrinsics + "Nested: " + open + "1" + close + "\n";
+  };
+  const auto block = [&](int levels) {
+    std::string text = intrinsics + "Nested:\n";
+    for (int i = 1; i < levels - 1; ++i) text += std::string(i, ' ') + "a:\n";
+    return text + std::string(levels - 1, ' ') + "a: 1\n";
+  };
   testing::TempDir temp;
-  const auto dir = WriteSeeds("settings",
-                              {{"minimal.yaml", intrinsics},
-                               {"full.yaml", FormatSettings(full)},
-                               {"orbslam2.yaml", orbslam2},
-                               {"viewpoint.yaml", intrinsics + "Viewer.ViewpointX: 0.5\n"
-                                                               "Viewer.ViewpointY: -0.7\n"
-                                                               "Viewer.ViewpointZ: -1.8\n"
-                                                               "Viewer.ViewpointF: 420\n"}},
-                              temp);
-  for (const char* name : {"minimal.yaml", "full.yaml", "orbslam2.yaml", "viewpoint.yaml"}) {
+  const auto dir =
+      WriteSeeds("settings",
+                 {{"minimal.yaml", intrinsics},
+                  {"full.yaml", FormatSettings(full)},
+                  {"orbslam2.yaml", orbslam2},
+                  {"viewpoint.yaml", intrinsics + "Viewer.ViewpointX: 0.5\n"
+                                                  "Viewer.ViewpointY: -0.7\n"
+                                                  "Viewer.ViewpointZ: -1.8\n"
+                                                  "Viewer.ViewpointF: 420\n"},
+                  {"nested_60_flow.yaml", flow(60)},
+                  {"nested_60_block.yaml", block(60)},
+                  {"nested_70_flow.yaml", flow(70)},
+                  {"nested_70_block.yaml", block(70)},
+                  {"duplicate_key.yaml", intrinsics + "Camera.fx: 501\n"},
+                  {"integer_4294967316.yaml", intrinsics + "Camera.width: 4294967316\n"}},
+                 temp);
+  for (const char* name : {"minimal.yaml", "full.yaml", "orbslam2.yaml", "viewpoint.yaml",
+                           "nested_60_flow.yaml", "nested_60_block.yaml"}) {
     EXPECT_NO_THROW(ReadSettings(dir / name)) << name;
   }
   EXPECT_NO_THROW(ReadViewpoint(dir / "orbslam2.yaml"));
   EXPECT_NO_THROW(ReadViewpoint(dir / "viewpoint.yaml"));
+  const std::pair<const char*, std::string> refused[] = {
+      {"nested_70_flow.yaml", "line 6: YAML nested deeper than 64 levels"},
+      {"nested_70_block.yaml", "line 70: YAML nested deeper than 64 levels"},
+      {"duplicate_key.yaml", "line 6: key 'Camera.fx' is given twice"},
+      {"integer_4294967316.yaml", "line 6: integer 4294967316 does not fit in 32 bits"}};
+  for (const auto& [name, message] : refused) {
+    try {
+      (void)ReadSettings(dir / name);
+      ADD_FAILURE() << name << " accepted";
+    } catch (const DataError& e) {
+      EXPECT_EQ(std::string(e.what()), (dir / name).string() + ": " + message);
+    }
+  }
 }
 
 TEST(TextSeeds, TumLists) {

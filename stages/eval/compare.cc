@@ -17,6 +17,7 @@
 #include "common/image_io.h"
 #include "common/json_text.h"
 #include "common/output_path.h"
+#include "common/path_check.h"
 #include "stages/eval/eval.h"
 #include "stages/eval/plot.h"
 
@@ -164,10 +165,10 @@ CompareTable ReadCompareTable(const std::vector<CompareColumn>& columns, size_t 
   std::vector<std::set<std::string>> present(columns.size());
   std::set<std::string> sequences;
   for (size_t c = 0; c < columns.size(); ++c) {
-    std::error_code ec;
-    if (!fs::is_directory(columns[c].dir, ec)) {
-      throw NoInputError("--column " + columns[c].name + ": " + columns[c].dir.string() +
-                         ": no such folder");
+    const std::string why = WhyNotAFolder(columns[c].dir);
+    if (!why.empty()) {
+      throw NoInputError("--column " + columns[c].name + ": " + columns[c].dir.string() + ": " +
+                         (why == "does not exist" ? "no such folder" : why + ", not a folder"));
     }
     for (const std::string& name : SequenceFolders(columns[c])) {
       present[c].insert(name);

@@ -14,6 +14,7 @@
 #include "common/errors.h"
 #include "common/json_text.h"
 #include "common/output_path.h"
+#include "common/path_check.h"
 #include "common/text.h"
 
 namespace rrslam {
@@ -157,7 +158,7 @@ std::string SplitCsvLine(std::string_view line, std::vector<std::string>* fields
 
 RunSummary ReadRunSummary(const fs::path& dir) {
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw NoInputError(dir.string() + ": no such run folder");
+  RequireFolder(dir, "run folder");
   RunSummary run;
   run.name = fs::absolute(dir).lexically_normal().filename().string();
   if (run.name.empty()) run.name = fs::absolute(dir).lexically_normal().parent_path().filename();

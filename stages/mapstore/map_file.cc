@@ -12,6 +12,7 @@
 #include "common/binary_header.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/path_check.h"
 
 namespace rrslam {
 namespace {
@@ -693,12 +694,7 @@ MapData ParseMap(std::span<const uint8_t> file, const std::string& source, MapFi
 }
 
 MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
-  std::error_code ec;
-  const auto status = std::filesystem::status(path, ec);
-  if (!std::filesystem::exists(status)) throw NoInputError(path.string() + ": file not found");
-  if (std::filesystem::is_directory(status)) {
-    throw NoInputError(path.string() + ": is a folder, not a map file");
-  }
+  RequireFile(path, "map file");
   {
     // The header first, from a mapping that reads only the pages it touches:
     // a file longer or shorter than its header says (padded to gigabytes) is

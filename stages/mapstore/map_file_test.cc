@@ -395,7 +395,7 @@ TEST(MapFile, FolderAndMissingFileAreNoInput) {
   TempDir dir;
   ExpectError<NoInputError>([&] { ReadMapFile(dir.path()); }, "is a folder");
   ExpectError<NoInputError>([&] { ReadMapFile(dir / "missing.rrm"); },
-                            "missing.rrm: file not found");
+                            "missing.rrm: no such map file");
   testing::WriteTextFile(dir / "empty.rrm", "");
   ExpectError<DataError>([&] { ReadMapFile(dir / "empty.rrm"); }, "empty.rrm: truncated");
 }

@@ -14,6 +14,7 @@
 #include "common/formats.h"
 #include "common/json_text.h"
 #include "common/output_path.h"
+#include "common/path_check.h"
 #include "stages/mapstore/map_diff.h"
 #include "stages/mapstore/map_file.h"
 
@@ -32,15 +33,6 @@ std::string Hex64(uint64_t value) {
 }
 
 // The same checks as ReadMapFile, before the file is mapped.
-void RequireFile(const std::filesystem::path& path) {
-  std::error_code ec;
-  const auto status = std::filesystem::status(path, ec);
-  if (!std::filesystem::exists(status)) throw NoInputError(path.string() + ": file not found");
-  if (std::filesystem::is_directory(status)) {
-    throw NoInputError(path.string() + ": is a folder, not a map file");
-  }
-}
-
 std::string Scalar(const nlohmann::ordered_json& v) {
   return v.is_string() ? v.get<std::string>() : DumpJson(v);
 }
@@ -146,7 +138,7 @@ std::string RunMapInfo(const MapInfoOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   const std::string name = options.map.string();
-  RequireFile(options.map);
+  RequireFile(options.map, "map file");
   const MappedFile file(options.map);
   const std::span<const uint8_t> bytes = file.bytes();
   // Header and table: without them nothing can be shown (throws DataError).

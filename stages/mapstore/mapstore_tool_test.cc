@@ -88,7 +88,7 @@ TEST_F(MapstoreTool, VerifyCorruptMissingFolderUsage) {
       << r.output;
   r = RunTool("mapstore", "verify " + (dir_ / "missing.rrm").string());
   EXPECT_EQ(r.exit_code, 66) << r.output;
-  EXPECT_NE(r.output.find("missing.rrm: file not found"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("missing.rrm: no such map file"), std::string::npos) << r.output;
   r = RunTool("mapstore", "verify " + dir_.path().string());
   EXPECT_EQ(r.exit_code, 66) << r.output;
   r = RunTool("mapstore", "");

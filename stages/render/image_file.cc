@@ -6,6 +6,7 @@
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
+#include "common/path_check.h"
 
 namespace rrslam {
 
@@ -42,7 +43,7 @@ void WritePicture(const std::filesystem::path& path, const cv::Mat& image,
 
 std::vector<std::pair<std::string, std::string>> ReadPictureMetadata(
     const std::filesystem::path& path) {
-  if (!std::filesystem::exists(path)) throw NoInputError(path.string() + ": no such file");
+  RequireFile(path, "file");
   std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(path.string());
   if (!in) throw DataError(path.string() + ": not a readable image: " + OIIO::geterror());
   std::vector<std::pair<std::string, std::string>> result;
