@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "common/errors.h"
+#include "common/path_check.h"
 #include "common/temporaries.h"
 
 namespace rrslam {
@@ -404,9 +405,12 @@ void WriteFileAtomically(const fs::path& path, std::string_view content) {
 }
 
 std::string ReadFileToString(const fs::path& path) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec))
-    throw NoInputError(path.string() + ": is a folder, expected a file");
+  // A pipe is read (`--gt <(zcat gt.txt.gz)`); a device never ends
+  // (/dev/zero) or is not data: refused, as a folder is.
+  const std::string why = WhyNotAFile(path);
+  if (!why.empty() && why != "is a FIFO" && why != "does not exist") {
+    throw NoInputError(path.string() + ": " + why + ", expected a file");
+  }
   std::ifstream stream(path, std::ios::binary);
   if (!stream) throw NoInputError(path.string() + ": cannot open: " + ErrnoText());
   std::ostringstream buffer;

@@ -150,7 +150,9 @@ void SetForceRenameFallback(bool force);
 // Writes `content` to `path` atomically (see AtomicOutput).
 void WriteFileAtomically(const std::filesystem::path& path, std::string_view content);
 
-// Reads a whole file. Throws NoInputError when it cannot be opened.
+// Reads a whole file, or a pipe to its end. Throws NoInputError when it
+// cannot be opened or is a folder or device ("/dev/zero: is a character
+// device, expected a file").
 std::string ReadFileToString(const std::filesystem::path& path);
 
 }  // namespace rrslam

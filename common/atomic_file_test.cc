@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "common/errors.h"
@@ -447,6 +448,18 @@ TEST(AtomicFile, ReadMissingFileIsNoInput) {
   testing::TempDir dir;
   EXPECT_THROW(ReadFileToString(dir / "absent"), NoInputError);
   EXPECT_THROW(ReadFileToString(dir.path()), NoInputError);
+  // A device never ends (issue 36: `--gt /dev/zero` read for ever).
+  try {
+    ReadFileToString("/dev/zero");
+    FAIL();
+  } catch (const NoInputError& e) {
+    EXPECT_STREQ(e.what(), "/dev/zero: is a character device, expected a file");
+  }
+  // A pipe is read to its end.
+  ASSERT_EQ(::mkfifo((dir / "pipe").c_str(), 0600), 0);
+  std::thread writer([&] { std::ofstream(dir / "pipe") << "through a pipe\n"; });
+  EXPECT_EQ(ReadFileToString(dir / "pipe"), "through a pipe\n");
+  writer.join();
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <system_error>
 #include <thread>
 #include <opencv2/core/utility.hpp>
 
@@ -128,6 +129,14 @@ int RunTool(int argc, char** argv, const ToolInfo& info,
     return Fail(name, ExitCode::kUsage, e.what());
   } catch (const std::bad_alloc&) {
     return Fail(name, ExitCode::kSoftware, "out of memory");
+  } catch (const std::system_error& e) {
+    // std::thread's EAGAIN: the system refuses another thread (a process
+    // or memory limit), where a tool starts one of its own.
+    if (e.code() == std::errc::resource_unavailable_try_again) {
+      const std::string what = std::string("cannot start a thread: ") + e.what();
+      return Fail(name, ExitCode::kTempFail, what.c_str());
+    }
+    return Fail(name, ExitCode::kSoftware, e.what(), "internal error");
   } catch (const std::exception& e) {
     return Fail(name, ExitCode::kSoftware, e.what(), "internal error");
   }

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <system_error>
+
 #include "common/errors.h"
 
 namespace rrslam {
@@ -30,6 +32,14 @@ TEST(RunTool, MapsErrorsToExitCodes) {
   EXPECT_EQ(RunWithArgs({}, [] { throw std::logic_error("bug"); }), 70);
   EXPECT_EQ(RunWithArgs({}, [] { throw CantCreateError("c"); }), 73);
   EXPECT_EQ(RunWithArgs({}, [] { throw AlgorithmError("a"); }), 75);
+  // A thread the system refuses (std::thread's EAGAIN) is a lack of
+  // resources, not an internal error.
+  EXPECT_EQ(RunWithArgs({},
+                        [] {
+                          throw std::system_error(
+                              std::make_error_code(std::errc::resource_unavailable_try_again));
+                        }),
+            75);
 }
 
 TEST(RunTool, BadFlagsAreUsageErrors) {

@@ -21,6 +21,18 @@ a=$2 b=$3 c=$4 d=$5 out=$6
 for f in rgb.txt depth.txt groundtruth.txt; do
   [[ -f "$src/$f" ]] || { echo "make_kidnapped: $src/$f: missing" >&2; exit 66; }
 done
+# OUT is replaced only when it is missing, empty or an earlier output of this
+# script (its files, images as symbolic links): never a folder of the user's.
+if [[ -e "$out" || -L "$out" ]]; then
+  foreign=$(find "$out" -maxdepth 0 ! -type d -printf '%f\n'
+    find "$out" -mindepth 1 -maxdepth 1 ! -name rgb ! -name depth ! -name rgb.txt \
+      ! -name depth.txt ! -name groundtruth.txt ! -name settings.yaml -printf '%f\n' 2>/dev/null
+    find "$out"/rgb "$out"/depth -mindepth 1 ! -type l -printf '%P\n' 2>/dev/null || true)
+  if [[ -n "$foreign" ]]; then
+    echo "make_kidnapped: $out: holds files make_kidnapped did not write ($(head -1 <<<"$foreign")); give an empty or new folder" >&2
+    exit 73
+  fi
+fi
 tmp="$out.tmp.$$"
 rm -rf "$tmp"
 mkdir -p "$tmp/rgb" "$tmp/depth"
