@@ -3,6 +3,8 @@
 // noisy pixels, depth and descriptors. Header-only; tests only.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <Eigen/Core>
 #include <memory>
 #include <random>
@@ -174,6 +176,14 @@ inline KeyFrame* MakeGridKeyFrame(Map* map, const SensorModel& sensor, int n,
 }
 
 // A map point (added to the map) observed by keyframes[j] at keypoint indices[j].
+// EXPECT_TRUE(MapIsConsistent(map)): the map's invariants hold
+// (Map::CheckInvariants), else the first violated one is the message.
+inline ::testing::AssertionResult MapIsConsistent(const Map& map) {
+  std::string why;
+  if (map.CheckInvariants(&why)) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << why;
+}
+
 inline MapPoint* MakeObservedPoint(Map* map, const std::vector<KeyFrame*>& keyframes,
                                    const std::vector<uint32_t>& indices,
                                    const Eigen::Vector3d& position = Eigen::Vector3d(0, 0, 2)) {

@@ -132,6 +132,15 @@ class ImagePrefetcher {
   std::thread thread_;
 };
 
+// The map's invariants (Map::CheckInvariants); a violation is a bug, so it
+// is an internal error (exit 70) naming the invariant and `when`.
+void RequireMapInvariants(const Map& map, const std::string& when) {
+  std::string why;
+  if (!map.CheckInvariants(&why)) {
+    throw std::logic_error("the map breaks an invariant " + when + ": " + why);
+  }
+}
+
 // The settings a features file was extracted with must give the same
 // keypoints (camera, depth scale, pyramid) as the tracking settings.
 void CheckFeaturesSettings(const std::string& name, const Settings& file, const Settings& s) {
@@ -542,6 +551,9 @@ TrackSummary RunTrack(const TrackOptions& options) {
     if (!realtime && new_keyframe) {
       mapper.ProcessQueued();
       closer.ProcessQueued();
+#ifndef NDEBUG
+      RequireMapInvariants(map, "after the keyframe of frame " + std::to_string(k));
+#endif
     }
     progress.Advance();
   }
@@ -628,6 +640,8 @@ TrackSummary RunTrack(const TrackOptions& options) {
                                 {"next_keyframe_id", loaded.next_keyframe_id},
                                 {"next_map_point_id", loaded.next_map_point_id}};
     }
+    // A broken map is not saved: the --save-map file keeps its content.
+    RequireMapInvariants(map, "(" + options.save_map.string() + " not saved)");
     const MapData data = ToMapData(map, camera, vocabulary, options.vocabulary.filename().string(),
                                    bow_levels_up, DumpJson(metadata));
     ValidateMapData(data, options.save_map.string() + " (before saving)");
@@ -641,9 +655,8 @@ TrackSummary RunTrack(const TrackOptions& options) {
     }
     map_file_bytes = bytes.size();
     saved_identity = MapIdentity(ReadMapFileInfo(bytes, options.save_map.string()));
-    map_output->Commit();
     map_save_ms = MillisecondsSince(save_start);
-    spdlog::info("track: map saved to {} in {:.1f} ms ({} keyframes, {} map points, {} bytes)",
+    spdlog::info("track: map written for {} in {:.1f} ms ({} keyframes, {} map points, {} bytes)",
                  options.save_map.string(), map_save_ms, data.keyframes.size(),
                  data.map_points.size(), bytes.size());
   }
@@ -763,6 +776,11 @@ TrackSummary RunTrack(const TrackOptions& options) {
   }
   report["peak_rss_mb"] = PeakRssMegabytes();
   write("run.json", DumpJson(report, 2) + "\n");
+  // The map and the folder are committed together, the map first: a failure
+  // before leaves both as they were (the --load-map file too, when the map
+  // replaces it); only a failure between the two renames leaves the new map
+  // beside the old run folder.
+  if (map_output) map_output->Commit();
   output.Commit();
 
   if (summary.lost > 0) {

@@ -187,9 +187,38 @@ void Map::UpdateConnections(KeyFrame* keyframe) {
   keyframe->SetConnections(std::move(edges));
 
   if (!keyframe->connected()) {
-    keyframe->set_connected();
-    if (keyframe != root_) keyframe->SetParent(keyframe->covisible().front());
+    if (keyframe == root_) {
+      keyframe->set_connected();
+      return;
+    }
+    // The strongest neighbour becomes the parent, as in ORB-SLAM2. A
+    // keyframe that had no neighbours when it was made (the first of a new
+    // session in the map) may first connect once keyframes hang below it,
+    // typically when a loop closure fuses its points with the older part:
+    // it then stays the root of its part (the tree is a forest; loop and
+    // covisibility edges join the parts), since a tree edge to the older
+    // part would carry the drift the loop corrects, and a descendant as
+    // parent would close a cycle. In one session every keyframe is
+    // connected before the next is made, so this never happens there.
+    if (!keyframe->children().empty()) return;
+    for (KeyFrame* candidate : keyframe->covisible()) {
+      if (!IsDescendant(candidate, keyframe)) {
+        keyframe->SetParent(candidate);
+        keyframe->set_connected();
+        return;
+      }
+    }
   }
+}
+
+bool Map::IsDescendant(const KeyFrame* keyframe, const KeyFrame* ancestor) const {
+  // Bounded by the number of keyframes: a cycle elsewhere cannot hang it.
+  const KeyFrame* node = keyframe;
+  for (size_t steps = 0; node != nullptr && steps <= keyframes_.size(); ++steps) {
+    if (node == ancestor) return true;
+    node = node->parent();
+  }
+  return false;
 }
 
 bool Map::CullKeyFrame(KeyFrame* keyframe) {

@@ -19,6 +19,7 @@
 
 #include <memory>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include "stages/track/data/keyframe.h"
@@ -86,8 +87,10 @@ class Map {
   // Recomputes `keyframe`'s covisibility edges from its map points: an edge to
   // every keyframe sharing at least kCovisibilityMinWeight points, or to the
   // one sharing most when none does; edges are kept symmetric. On the first
-  // call the best neighbour becomes the spanning-tree parent (except for the
-  // first keyframe of the map, the root).
+  // call the best neighbour that is not one of its descendants becomes the
+  // spanning-tree parent (except for the first keyframe of the map, the
+  // root, and a keyframe that already has children: the root of a part of
+  // the tree made without neighbours, see map.cc).
   void UpdateConnections(KeyFrame* keyframe);
 
   // Culls a keyframe (ORB-SLAM2's KeyFrame::SetBadFlag): removes its edges and
@@ -112,7 +115,36 @@ class Map {
   // The lock of realtime mode (see the file comment).
   std::mutex& mutex() const { return mutex_; }
 
+  // Checks the graph's invariants (map_invariants.cc); false with the first
+  // violated one in `why` (may be nullptr), e.g. "keyframe 12 keypoint 40:
+  // map point 7 is not in the map (culled or replaced)":
+  //   - membership: objects in the map are not bad, the counters match, the
+  //     root is in the map;
+  //   - observations both ways: a keyframe's keypoint points at a map point
+  //     in the map that lists that keypoint, and a point's observations
+  //     (sorted by keyframe id, weighted count right) are keyframes in the map
+  //     pointing back; every point has one, and a reference keyframe in the map;
+  //   - covisibility and loop edges: between keyframes in the map, symmetric,
+  //     positive weights equal on both sides;
+  //   - spanning tree: the root has no parent, every other connected
+  //     keyframe a parent in the map listing it as a child, and following
+  //     parents ends at the root or at an unconnected keyframe (the root of
+  //     a part made without neighbours, see UpdateConnections): no cycle.
+  // O(observations + edges + keyframes x tree depth). Call it where no
+  // module is half-way through an operation (between keyframes, before a
+  // save), holding mutex() in realtime mode.
+  bool CheckInvariants(std::string* why) const;
+
  private:
+  // True when following parents from `keyframe` reaches `ancestor`.
+  bool IsDescendant(const KeyFrame* keyframe, const KeyFrame* ancestor) const;
+  bool InMap(const KeyFrame* keyframe) const;
+  bool InMap(const MapPoint* point) const;
+  bool CheckMembership(std::string* why) const;
+  bool CheckObservations(std::string* why) const;
+  bool CheckEdges(std::string* why) const;
+  bool CheckSpanningTree(std::string* why) const;
+
   std::vector<std::unique_ptr<KeyFrame>> keyframes_;   // Index = id; nullptr = id unused.
   std::vector<std::unique_ptr<MapPoint>> map_points_;  // Index = id; nullptr = id unused.
   std::vector<uint8_t> keyframe_in_map_;

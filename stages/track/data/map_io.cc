@@ -309,11 +309,14 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
     kf->SetConnections(std::move(connections));
     if (r.parent != kNoId) kf->SetParent(keyframe(r.parent));
     for (uint64_t id : r.loop_edges) kf->AddLoopEdge(keyframe(id));
-    kf->set_connected();
+    // A keyframe without a parent other than the root is the root of a part
+    // of the tree (Map::UpdateConnections): not connected, as it was saved.
+    if (r.parent != kNoId) kf->set_connected();
   }
   for (size_t k = 0; k < keyframes.size(); ++k) {
     if (data.keyframes[k].parent == kNoId) map->AddKeyFrame(keyframes[k]);
   }
+  if (map->root() != nullptr) map->root()->set_connected();
   for (KeyFrame* kf : keyframes) map->AddKeyFrame(kf);
   database->AddAll(keyframes);
   for (MapPoint* p : points) map->AddMapPoint(p);

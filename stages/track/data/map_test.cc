@@ -30,6 +30,18 @@ class MapTest : public ::testing::Test {
     }
   }
 
+  // The map's invariants hold (Map::CheckInvariants); else the violated one.
+  ::testing::AssertionResult Consistent() const {
+    std::string why;
+    if (map_.CheckInvariants(&why)) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << why;
+  }
+  // The first violated invariant ("" when none).
+  std::string Violation() const {
+    std::string why;
+    return map_.CheckInvariants(&why) ? "" : why;
+  }
+
   std::mt19937 rng_{1};
   SensorModel sensor_ = TestSensor();
   Map map_;
@@ -93,6 +105,7 @@ TEST_F(MapTest, UpdatingConnectionsDropsWeakenedEdgesOnBothSides) {
   EXPECT_TRUE(keyframes_[0]->covisible().empty());
   // The spanning tree does not change with the graph.
   EXPECT_EQ(keyframes_[1]->parent(), keyframes_[0]);
+  EXPECT_TRUE(Consistent());
 }
 
 TEST_F(MapTest, CullingAKeyFrameReattachesItsChildrenByCovisibility) {
@@ -132,6 +145,7 @@ TEST_F(MapTest, CullingAKeyFrameReattachesItsChildrenByCovisibility) {
   EXPECT_TRUE(k1->T_cam_parent().translation.isApprox(expected_T_cam_parent.translation));
   // Points it shared with one other keyframe lost their second observation.
   EXPECT_EQ(map_.num_map_points(), static_cast<size_t>(20 + 16 + 30));
+  EXPECT_TRUE(Consistent());
 }
 
 TEST_F(MapTest, PointsWithTooFewObservationsAreCulled) {
@@ -157,6 +171,7 @@ TEST_F(MapTest, PointsWithTooFewObservationsAreCulled) {
   EXPECT_EQ(triple->reference_keyframe(), k1);  // The reference moved on.
   EXPECT_EQ(k0->map_point(1), nullptr);
   EXPECT_EQ(map_.num_map_points(), 1u);
+  EXPECT_TRUE(Consistent());
 }
 
 TEST_F(MapTest, ReplacingAPointMovesItsObservations) {
@@ -176,6 +191,7 @@ TEST_F(MapTest, ReplacingAPointMovesItsObservations) {
   EXPECT_EQ(b->visible(), 1 + 5);
   EXPECT_EQ(b->found(), 1 + 3);
   EXPECT_EQ(map_.MapPoints(), (std::vector<MapPoint*>{b}));
+  EXPECT_TRUE(Consistent());
 }
 
 TEST_F(MapTest, RepresentativeDescriptorHasTheLeastMedianDistance) {
@@ -238,9 +254,11 @@ TEST_F(MapTest, ClearDiscardsEverythingAndTheNextKeyFrameIsTheRoot) {
   for (KeyFrame* kf : keyframes_) EXPECT_TRUE(kf->bad());
   for (MapPoint* p : points) EXPECT_TRUE(p->bad());
   EXPECT_EQ(keyframes_[1]->map_point(0), nullptr);
+  EXPECT_TRUE(Consistent());
   MakeKeyFrames(1);
   EXPECT_EQ(map_.root(), keyframes_.back());
   EXPECT_EQ(map_.num_keyframes(), 1u);
+  EXPECT_TRUE(Consistent());
 }
 
 // Keyframes 0 <- 1 <- 2 in the spanning tree, each sharing 20 points with
@@ -274,6 +292,7 @@ TEST_F(CullingProtectionTest, AKeyFrameInUseIsCulledWhenReleased) {
   EXPECT_EQ(map_.KeyFrames(), (std::vector<KeyFrame*>{k0, k2}));
   EXPECT_EQ(k2->parent(), k0);
   EXPECT_EQ(k2->Weight(k1), 0);
+  EXPECT_TRUE(Consistent());
 }
 
 TEST_F(CullingProtectionTest, AKeyFrameWithALoopEdgeIsNeverCulled) {
@@ -292,6 +311,70 @@ TEST_F(CullingProtectionTest, AKeyFrameWithALoopEdgeIsNeverCulled) {
   EXPECT_EQ(k1->Weight(k2), 20);
   // A keyframe without loop edges is culled as usual.
   EXPECT_TRUE(map_.CullKeyFrame(k1));
+  EXPECT_TRUE(Consistent());
+}
+
+// Each invariant, broken behind Map's back, is reported by name.
+TEST_F(CullingProtectionTest, EachBrokenInvariantIsReported) {
+  KeyFrame *k0 = keyframes_[0], *k1 = keyframes_[1], *k2 = keyframes_[2];
+  ASSERT_TRUE(Consistent());
+  MapPoint* p = k1->map_point(0);  // Shared by keyframes 0 and 1.
+  ASSERT_NE(p, nullptr);
+  const uint32_t index = static_cast<uint32_t>(p->IndexIn(k0));
+  // An observation one way only.
+  k0->SetMapPoint(index, nullptr);
+  EXPECT_EQ(Violation(), "map point " + std::to_string(p->id()) + ": observation by keyframe 0: " +
+                             "its keypoint " + std::to_string(index) + " does not point back");
+  k0->SetMapPoint(index, p);
+  k2->SetMapPoint(199, p);
+  EXPECT_EQ(Violation(), "keyframe 2 keypoint 199: map point " + std::to_string(p->id()) +
+                             " does not list it");
+  k2->SetMapPoint(199, nullptr);
+  // A culled point still referenced by a keyframe.
+  map_.CullMapPoint(p);
+  ASSERT_TRUE(Consistent());
+  k0->SetMapPoint(index, p);
+  EXPECT_EQ(Violation(), "keyframe 0 keypoint " + std::to_string(index) + ": map point " +
+                             std::to_string(p->id()) + " is not in the map (culled or replaced)");
+  k0->SetMapPoint(index, nullptr);
+  // In the map but marked bad behind its back.
+  MapPoint* q = k1->map_point(1);
+  q->MarkBad(nullptr);
+  EXPECT_EQ(Violation(), "map point " + std::to_string(q->id()) + " is in the map but bad");
+}
+
+TEST_F(CullingProtectionTest, BrokenEdgesAndTreeAreReported) {
+  KeyFrame *k0 = keyframes_[0], *k1 = keyframes_[1], *k2 = keyframes_[2];
+  // A covisibility weight that differs between the two ends.
+  k2->SetConnection(k1, 7);
+  EXPECT_EQ(Violation(), "keyframe 1: covisibility edge to keyframe 2: weight 20 here, 7 there");
+  k2->SetConnection(k1, 20);
+  ASSERT_TRUE(Consistent());
+  // A one-way loop edge.
+  k2->AddLoopEdge(k0);
+  EXPECT_EQ(Violation(), "keyframe 2: loop edge to keyframe 0: one-way");
+  k0->AddLoopEdge(k2);
+  ASSERT_TRUE(Consistent());
+  // A cycle in the spanning tree: 1's parent becomes 2, whose parent is 1.
+  k0->RemoveChild(k1);
+  k1->SetParent(k2);
+  EXPECT_NE(Violation().find("its parents form a cycle"), std::string::npos) << Violation();
+}
+
+TEST_F(MapTest, BrokenCountsAndPointsAreReported) {
+  MakeKeyFrames(2);
+  Share(0, 1, 20);
+  map_.UpdateConnections(keyframes_[1]);
+  ASSERT_TRUE(Consistent());
+  // A point without observations.
+  MapPoint* lonely = map_.CreateMapPoint(Eigen::Vector3d(0, 0, 2), keyframes_[0]);
+  map_.AddMapPoint(lonely);
+  EXPECT_EQ(Violation(), "map point 20 has no observation");
+  map_.CullMapPoint(lonely);
+  ASSERT_TRUE(Consistent());
+  // A keyframe in the map marked bad behind the map's back.
+  keyframes_[1]->MarkBad(Rigid3d::Identity());
+  EXPECT_EQ(Violation(), "keyframe 1 is in the map but bad");
 }
 
 TEST_F(CullingProtectionTest, ReleasingWithoutAPendingCullKeepsTheKeyFrame) {

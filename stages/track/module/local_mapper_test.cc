@@ -162,6 +162,7 @@ TEST_F(CullingTest, MapperCullsRedundantCovisibleKeyFramesButNeverTheRoot) {
   EXPECT_EQ(map_.num_keyframes(), 3u);
   EXPECT_EQ(mapper.counters().culled_keyframes, 2u);
   for (KeyFrame* kf : map_.KeyFrames()) EXPECT_NE(kf, redundant);
+  EXPECT_TRUE(testing::MapIsConsistent(map_));
 }
 
 }  // namespace

@@ -503,6 +503,7 @@ TEST_F(LoopCloserThreadsTest, BatchClosesTheLoop) {
   EXPECT_EQ(c.global_ba.solves, 1u);
   ExpectCorrected(q_, q_true_);
   ExpectEarlierPartKept();
+  EXPECT_TRUE(testing::MapIsConsistent(map_));
 }
 
 // Realtime: the loop closer's thread takes the keyframes from its queue, the

@@ -69,6 +69,7 @@ TEST_F(MapRefinementTest, ErasesFalseObservationsAndIgnoresThem) {
   for (const auto& [point, index] : swapped) {
     EXPECT_NE(point->IndexIn(kf), static_cast<int>(index)) << "false observation kept";
   }
+  EXPECT_TRUE(testing::MapIsConsistent(map_));
   for (size_t k = 1; k < keyframes_.size(); ++k) {
     EXPECT_LT(TranslationError(keyframes_[k]->T_cam_world(), truth_[k]), 1e-3) << k;
   }
