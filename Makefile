@@ -31,7 +31,7 @@ BIN := $(BUILD_DIR)/bin
 all: build
 
 help:
-	@sed -n '2,16p' Makefile | sed 's/^# \{0,1\}//'
+	@awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' Makefile
 
 deps:
 	@scripts/install-deps.sh

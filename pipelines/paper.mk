@@ -73,11 +73,11 @@ ifeq ($(filter $(PAPER_TRANSFER),$(paper_names)),)
 endif
 endif
 
-# Settings of sequence $(1): a synthetic one's own (written with it), a real
-# one's settings.yaml, else its TUM camera's.
-paper_settings = $(if $(filter $(paper_synth_names),$(1)),$(paper_seq.$(1))/settings.yaml,$(or \
-  $(wildcard $(paper_seq.$(1))/settings.yaml),$(if $(call vocab_camera,$(1)),$(SHARED_DATA)/settings/tum$(call \
-  vocab_camera,$(1)).yaml)))
+# Settings of sequence $(1): a synthetic one's own (written with it, so it may
+# not exist yet), a real one's as the vocab pipeline finds them
+# (vocab_settings_in: its settings.yaml, else its TUM camera's).
+paper_settings = $(if $(filter $(paper_synth_names),$(1)),$(paper_seq.$(1))/settings.yaml,$(call \
+  vocab_settings_in,$(1),$(paper_seq.$(1))))
 paper_features = $(PAPER_ROOT)/pipeline/$(1)/features.h5
 paper_others = $(filter-out $(1),$(paper_names))
 paper_variants := own general transfer
