@@ -7,9 +7,9 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <opencv2/core/utility.hpp>
 #include <system_error>
 #include <thread>
-#include <opencv2/core/utility.hpp>
 
 #include "common/errors.h"
 #include "common/progress.h"
@@ -65,8 +65,7 @@ void RefuseNegativeUnsigned(CLI::App* app) {
 // Prints "<tool>: <kind>: <message>" and returns `code`; but while an
 // interruption removes the temporaries (which makes the tool's own writers
 // fail), waits for the process to die of the signal instead of reporting.
-int Fail(const std::string& name, ExitCode code, const char* message,
-         const char* kind = "error") {
+int Fail(const std::string& name, ExitCode code, const char* message, const char* kind = "error") {
   while (Interrupted()) std::this_thread::sleep_for(std::chrono::seconds(1));
   std::fprintf(stderr, "%s: %s: %s\n", name.c_str(), kind, message);
   return static_cast<int>(code);

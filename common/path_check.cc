@@ -27,13 +27,20 @@ std::string Describe(const std::filesystem::path& path, bool want_folder) {
   const mode_t type = info.st_mode & S_IFMT;
   if (type == (want_folder ? S_IFDIR : S_IFREG)) return "";
   switch (type) {
-    case S_IFREG: return "is a regular file";
-    case S_IFDIR: return "is a folder";
-    case S_IFIFO: return "is a FIFO";
-    case S_IFCHR: return "is a character device";
-    case S_IFBLK: return "is a block device";
-    case S_IFSOCK: return "is a socket";
-    default: return "is not a regular file or folder";
+    case S_IFREG:
+      return "is a regular file";
+    case S_IFDIR:
+      return "is a folder";
+    case S_IFIFO:
+      return "is a FIFO";
+    case S_IFCHR:
+      return "is a character device";
+    case S_IFBLK:
+      return "is a block device";
+    case S_IFSOCK:
+      return "is a socket";
+    default:
+      return "is not a regular file or folder";
   }
 }
 

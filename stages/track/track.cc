@@ -346,454 +346,579 @@ nlohmann::json TrackOptions::ToJson() const {
           {"changed_point_absent", changed_point_absent}};
 }
 
-TrackSummary RunTrack(const TrackOptions& options) {
-  const auto run_start = SteadyClock::now();
-  const double startup_process_to_run_ms = MillisecondsSince(ProcessStartTime());
-  std::string why;
-  if (!options.Check(&why)) throw UsageError(why);
-  const bool realtime = options.mode == "realtime";
+namespace {
 
-  // Inputs.
-  const Settings settings = ReadSettings(options.settings);
-  SequenceOptions sequence_options;
-  sequence_options.associations = options.associations;
-  // An image larger than the calibration's is refused from its header.
-  sequence_options.max_image_size = {
-      settings.width, settings.height,
-      "Camera.width x Camera.height of " + options.settings.string()};
-  const RgbdSequence sequence = RgbdSequence::Open(options.sequence, sequence_options);
-  std::vector<size_t> frames;
-  FeaturesFile features;
-  const bool use_features = !options.features.empty();
-  if (use_features) {
-    features = ReadFeaturesFile(options.features);
-    const std::string name = options.features.string();
-    if (features.settings_yaml.empty()) {
-      throw DataError(name + ": records no settings; cannot check it against " +
-                      options.settings.string());
+// One run of the stage, its steps in the pipeline's order: open the inputs
+// and outputs, build the SLAM modules, load a saved map, track the frames,
+// check that tracking started, refine, write the trajectories and the map,
+// write the report, commit. The objects a step makes are members, declared
+// so that the modules (whose threads use the map) go before the map.
+class TrackSession {
+ public:
+  explicit TrackSession(const TrackOptions& options) : options_(options) {}
+
+  TrackSummary Run() {
+    OpenInputs();
+    OpenOutputs();
+    BuildModules();
+    if (!options_.load_map.empty()) LoadMap();
+    TrackFrames();
+    CheckTrackingStarted();
+    if (options_.refine_map && mapping_) Refine();
+    Summarize();
+    WriteTrajectories();
+    if (map_output_) WriteMap();
+    Write("run.json", DumpJson(Report(), 2) + "\n");
+    Commit();
+    LogSummary();
+    return summary_;
+  }
+
+ private:
+  // Settings, sequence, the frames to track (of a features file, or all),
+  // vocabulary and sensor model.
+  void OpenInputs() {
+    std::string why;
+    if (!options_.Check(&why)) throw UsageError(why);
+    settings_ = ReadSettings(options_.settings);
+    SequenceOptions sequence_options;
+    sequence_options.associations = options_.associations;
+    // An image larger than the calibration's is refused from its header.
+    sequence_options.max_image_size = {
+        settings_.width, settings_.height,
+        "Camera.width x Camera.height of " + options_.settings.string()};
+    sequence_ = RgbdSequence::Open(options_.sequence, sequence_options);
+    use_features_ = !options_.features.empty();
+    if (use_features_) {
+      OpenFeatures();
+    } else {
+      for (size_t i = 0; i < sequence_.size(); ++i) frames_.push_back(i);
     }
-    CheckFeaturesSettings(name, ParseSettings(features.settings_yaml, name + " (settings)"),
-                          settings);
-    frames = MatchFeatureFrames(name, features, sequence);
-  } else {
-    for (size_t i = 0; i < sequence.size(); ++i) frames.push_back(i);
+    SelectFrames();
+    const auto vocabulary_start = SteadyClock::now();
+    vocabulary_ = Vocabulary::Load(options_.vocabulary);
+    if (vocabulary_.empty()) {
+      throw DataError(options_.vocabulary.string() + ": vocabulary has no words");
+    }
+    summary_.startup.vocabulary_load_ms = MillisecondsSince(vocabulary_start);
+    // The image size comes from the settings or from the first image.
+    width_ = settings_.width;
+    height_ = settings_.height;
+    if (width_ <= 0 || height_ <= 0) {
+      const cv::Mat first = LoadGrayImage(sequence_.frame(frames_.front()).rgb_path);
+      width_ = first.cols;
+      height_ = first.rows;
+    }
+    sensor_.emplace(settings_, width_, height_);
   }
-  if (options.first_frame > 0) {
-    const size_t first = static_cast<size_t>(options.first_frame);
-    frames.erase(frames.begin(), std::lower_bound(frames.begin(), frames.end(), first));
-  }
-  if (options.max_frames > 0 && frames.size() > static_cast<size_t>(options.max_frames)) {
-    frames.resize(options.max_frames);
-  }
-  if (frames.size() < 2) {
-    throw DataError((use_features ? options.features : options.sequence).string() + ": " +
-                    std::to_string(frames.size()) +
-                    " frame(s) to track; tracking needs at least 2");
-  }
-  TrackSummary summary;
-  TrackStartup& startup = summary.startup;
-  auto vocabulary_start = SteadyClock::now();
-  const Vocabulary vocabulary = Vocabulary::Load(options.vocabulary);
-  if (vocabulary.empty())
-    throw DataError(options.vocabulary.string() + ": vocabulary has no words");
-  startup.vocabulary_load_ms = MillisecondsSince(vocabulary_start);
 
-  // The image size comes from the settings or from the first image.
-  int width = settings.width, height = settings.height;
-  if (width <= 0 || height <= 0) {
-    const cv::Mat first = LoadGrayImage(sequence.frame(frames.front()).rgb_path);
-    width = first.cols;
-    height = first.rows;
+  void OpenFeatures() {
+    features_ = ReadFeaturesFile(options_.features);
+    const std::string name = options_.features.string();
+    if (features_.settings_yaml.empty()) {
+      throw DataError(name + ": records no settings; cannot check it against " +
+                      options_.settings.string());
+    }
+    CheckFeaturesSettings(name, ParseSettings(features_.settings_yaml, name + " (settings)"),
+                          settings_);
+    frames_ = MatchFeatureFrames(name, features_, sequence_);
   }
-  const SensorModel sensor(settings, width, height);
 
-  // An existing --out is replaced only when it is empty or an earlier
-  // rrslam-track output (common/atomic_file.h); checked here, before tracking.
-  AtomicOutput output(options.out, AtomicOutput::Kind::kDirectory,
-                      {.tool = "rrslam-track",
-                       .files = {"CameraTrajectory.txt", "KeyFrameTrajectory.txt", "run.json"},
-                       .folders = {},
-                       .record = "run.json"});
-  // Reserved now, so a --save-map that cannot be written fails before tracking.
-  std::optional<AtomicOutput> map_output;
-  if (!options.save_map.empty()) map_output.emplace(options.save_map);
+  // --first-frame and --max-frames; at least 2 frames remain.
+  void SelectFrames() {
+    if (options_.first_frame > 0) {
+      const size_t first = static_cast<size_t>(options_.first_frame);
+      frames_.erase(frames_.begin(), std::lower_bound(frames_.begin(), frames_.end(), first));
+    }
+    if (options_.max_frames > 0 && frames_.size() > static_cast<size_t>(options_.max_frames)) {
+      frames_.resize(options_.max_frames);
+    }
+    if (frames_.size() < 2) {
+      throw DataError((use_features_ ? options_.features : options_.sequence).string() + ": " +
+                      std::to_string(frames_.size()) +
+                      " frame(s) to track; tracking needs at least 2");
+    }
+  }
 
-  spdlog::info("track: {} frames of {} ({} mode), vocabulary {}", frames.size(),
-               options.sequence.string(), options.mode, vocabulary.Identity());
+  // Reserved before tracking, so that an output that cannot be written
+  // fails first. An existing --out is replaced only when it is empty or an
+  // earlier rrslam-track output (common/atomic_file.h).
+  void OpenOutputs() {
+    output_.emplace(
+        options_.out, AtomicOutput::Kind::kDirectory,
+        OutputFolderOwner{.tool = "rrslam-track",
+                          .files = {"CameraTrajectory.txt", "KeyFrameTrajectory.txt", "run.json"},
+                          .folders = {},
+                          .record = "run.json"});
+    if (!options_.save_map.empty()) map_output_.emplace(options_.save_map);
+    spdlog::info("track: {} frames of {} ({} mode), vocabulary {}", frames_.size(),
+                 options_.sequence.string(), options_.mode, vocabulary_.Identity());
+  }
 
-  // The SLAM objects.
-  Map map;
-  KeyFrameDatabase database(vocabulary);
-  const int bow_levels_up = FeatureVectorLevelsUp(vocabulary.levels(), options.small_vocab_groups);
-  TrackerOptions tracker_options;
-  tracker_options.max_keyframe_gap = std::max(1, static_cast<int>(std::lround(settings.fps)));
-  tracker_options.close_tracked =
-      options.load_map.empty() ? options.close_tracked : options.restore_close_tracked;
-  tracker_options.expand_all_local_keyframes = options.expand_all_local_keyframes;
-  tracker_options.bow_levels_up = bow_levels_up;
-  LocalMapperOptions mapper_options;
-  mapper_options.bow_levels_up = bow_levels_up;
-  mapper_options.bundle_adjustment.depth_fallback = options.ba_depth_fallback;
-  mapper_options.changed_point_min_views = options.changed_point_views;
-  mapper_options.changed_point_min_found_ratio = options.changed_point_ratio;
-  mapper_options.changed_point_min_absent = options.changed_point_absent;
-  tracker_options.localization_only = options.localization_only;
-  tracker_options.restore_mapping = !options.load_map.empty() && !options.localization_only;
-  LocalMapper mapper(sensor, vocabulary, &map, &database, mapper_options);
-  Tracker tracker(sensor, vocabulary, &map, &mapper, database, tracker_options);
-  LoopCloser closer(sensor, vocabulary, &map, &database, &mapper);
-  if (options.loop_closing) mapper.SetKeyFrameSink([&closer](KeyFrame* kf) { closer.Enqueue(kf); });
+  // The map's keyframe database, the local mapper, the tracker and the loop
+  // closer, with their options from the run's.
+  void BuildModules() {
+    database_ = std::make_unique<KeyFrameDatabase>(vocabulary_);
+    bow_levels_up_ = FeatureVectorLevelsUp(vocabulary_.levels(), options_.small_vocab_groups);
+    tracker_options_.max_keyframe_gap = std::max(1, static_cast<int>(std::lround(settings_.fps)));
+    tracker_options_.close_tracked =
+        options_.load_map.empty() ? options_.close_tracked : options_.restore_close_tracked;
+    tracker_options_.expand_all_local_keyframes = options_.expand_all_local_keyframes;
+    tracker_options_.bow_levels_up = bow_levels_up_;
+    LocalMapperOptions mapper_options;
+    mapper_options.bow_levels_up = bow_levels_up_;
+    mapper_options.bundle_adjustment.depth_fallback = options_.ba_depth_fallback;
+    mapper_options.changed_point_min_views = options_.changed_point_views;
+    mapper_options.changed_point_min_found_ratio = options_.changed_point_ratio;
+    mapper_options.changed_point_min_absent = options_.changed_point_absent;
+    tracker_options_.localization_only = options_.localization_only;
+    tracker_options_.restore_mapping = !options_.load_map.empty() && !options_.localization_only;
+    mapper_ = std::make_unique<LocalMapper>(*sensor_, vocabulary_, &map_, database_.get(),
+                                            mapper_options);
+    tracker_ = std::make_unique<Tracker>(*sensor_, vocabulary_, &map_, mapper_.get(), *database_,
+                                         tracker_options_);
+    closer_ =
+        std::make_unique<LoopCloser>(*sensor_, vocabulary_, &map_, database_.get(), mapper_.get());
+    if (options_.loop_closing) {
+      mapper_->SetKeyFrameSink([closer = closer_.get()](KeyFrame* kf) { closer->Enqueue(kf); });
+    }
+    camera_ = MapCameraFrom(settings_, width_, height_);
+  }
 
   // A saved map: loaded, checked against this camera and vocabulary, and
   // its keyframe database rebuilt; tracking starts lost in it.
-  const MapCamera camera = MapCameraFrom(settings, width, height);
-  LoadedMap loaded;
-  if (!options.load_map.empty()) {
+  void LoadMap() {
     const auto map_start = SteadyClock::now();
-    const std::string source = options.load_map.string();
+    const std::string source = options_.load_map.string();
     // The load's allocations (the file's records, then the live map: about
     // four times the file's size) on this thread, in huge-page memory.
     std::error_code size_error;
-    const uintmax_t file_bytes = std::filesystem::file_size(options.load_map, size_error);
+    const uintmax_t file_bytes = std::filesystem::file_size(options_.load_map, size_error);
     if (!size_error) ReserveHeap(4 * static_cast<size_t>(file_bytes));
     MapFileInfo info;
-    MapData data = ReadMapFile(options.load_map, &info);
-    CheckMapCompatible(data, camera, vocabulary, source);
+    MapData data = ReadMapFile(options_.load_map, &info);
+    CheckMapCompatible(data, camera_, vocabulary_, source);
+    TrackStartup& startup = summary_.startup;
     startup.map_read_ms = MillisecondsSince(map_start);
-    loaded.next_keyframe_id = data.next_keyframe_id;
-    loaded.next_map_point_id = data.next_map_point_id;
-    loaded.keyframes = data.keyframes.size();
-    loaded.map_points = data.map_points.size();
-    LoadMapData(std::move(data), sensor, vocabulary, bow_levels_up, &map, &database, source);
+    loaded_.next_keyframe_id = data.next_keyframe_id;
+    loaded_.next_map_point_id = data.next_map_point_id;
+    loaded_.keyframes = data.keyframes.size();
+    loaded_.map_points = data.map_points.size();
+    LoadMapData(std::move(data), *sensor_, vocabulary_, bow_levels_up_, &map_, database_.get(),
+                source);
     startup.map_load_ms = MillisecondsSince(map_start);
-    loaded.identity = MapIdentity(info);
-    tracker.StartOnLoadedMap();
-    if (!options.localization_only) mapper.WatchLoadedPoints(map.MapPoints());
+    loaded_.identity = MapIdentity(info);
+    tracker_->StartOnLoadedMap();
+    if (!options_.localization_only) mapper_->WatchLoadedPoints(map_.MapPoints());
     spdlog::info("track: map {} loaded in {:.1f} ms: {} keyframes, {} map points ({})", source,
-                 startup.map_load_ms, loaded.keyframes, loaded.map_points,
-                 options.localization_only ? "localization only" : "restore mapping");
-  }
-  const bool mapping = !options.localization_only;
-  if (realtime && mapping) {
-    mapper.Start();
-    if (options.loop_closing) closer.Start();
+                 startup.map_load_ms, loaded_.keyframes, loaded_.map_points,
+                 options_.localization_only ? "localization only" : "restore mapping");
   }
 
-  std::unique_ptr<ImagePrefetcher> prefetcher;
-  std::unique_ptr<OrbExtractor> extractor;
-  if (!use_features) {
-    prefetcher = std::make_unique<ImagePrefetcher>(sequence, frames, settings.depth_map_factor);
-    extractor = std::make_unique<OrbExtractor>(settings.orb, options.extraction_threads);
+  // The frame loop: each frame's features (extracted, or from the features
+  // file), tracked; in batch mode local mapping and loop closing run in step
+  // after each keyframe, in realtime mode in their own threads.
+  void TrackFrames() {
+    if (realtime_ && mapping_) {
+      mapper_->Start();
+      if (options_.loop_closing) closer_->Start();
+    }
+    if (!use_features_) {
+      prefetcher_ =
+          std::make_unique<ImagePrefetcher>(sequence_, frames_, settings_.depth_map_factor);
+      extractor_ = std::make_unique<OrbExtractor>(settings_.orb, options_.extraction_threads);
+    }
+    tracking_ms_.reserve(frames_.size());
+    ProgressBar progress("track", frames_.size(), "frame");
+    loop_start_ = SteadyClock::now();
+    if (realtime_ && options_.pace) WarnLongPaceGap(sequence_, frames_, options_.max_pace_gap);
+    previous_timestamp_ = sequence_.frame(frames_.front()).rgb_timestamp;
+    for (size_t k = 0; k < frames_.size(); ++k) {
+      TrackFrame(k);
+      progress.Advance();
+    }
+    if (realtime_ && mapping_) {
+      mapper_->Stop();
+      closer_->Stop();
+    }
+    mapper_->ProcessQueued();  // Nothing in realtime mode after Stop(); none left in batch.
+    closer_->ProcessQueued();
+    progress.Finish();
+    loop_s_ = std::chrono::duration<double>(SteadyClock::now() - loop_start_).count();
   }
 
-  std::vector<double> tracking_ms, extraction_ms, loading_ms;
-  tracking_ms.reserve(frames.size());
-  ProgressBar progress("track", frames.size(), "frame");
-  const auto loop_start = SteadyClock::now();
-  if (realtime && options.pace) WarnLongPaceGap(sequence, frames, options.max_pace_gap);
-  // --pace: seconds of the sequence delivered so far (gaps capped at
-  // --max-pace-gap), and the previous frame's timestamp.
-  double paced_s = 0, previous_timestamp = sequence.frame(frames.front()).rgb_timestamp;
-  for (size_t k = 0; k < frames.size(); ++k) {
-    const size_t index = frames[k];
-    const double timestamp = sequence.frame(index).rgb_timestamp;
+  void TrackFrame(size_t k) {
+    const size_t index = frames_[k];
+    const double timestamp = sequence_.frame(index).rgb_timestamp;
     std::vector<Keypoint> keypoints;
     std::vector<OrbDescriptor> descriptors;
     cv::Mat gray, depth;
-    if (use_features) {
-      const auto kps = features.FrameKeypoints(k);
-      const auto ds = features.FrameDescriptors(k);
+    if (use_features_) {
+      const auto kps = features_.FrameKeypoints(k);
+      const auto ds = features_.FrameDescriptors(k);
       keypoints.assign(kps.begin(), kps.end());
       descriptors.assign(ds.begin(), ds.end());
     } else {
-      ImagePrefetcher::Images images = prefetcher->Next();
-      loading_ms.push_back(images.load_ms);
+      ImagePrefetcher::Images images = prefetcher_->Next();
+      loading_ms_.push_back(images.load_ms);
       gray = std::move(images.gray);
       depth = std::move(images.depth_metres);
     }
-    if (realtime && options.pace) {
-      // A gap longer than --max-pace-gap is not slept through (a pause in
-      // the recording, sequences glued together): it counts as that long.
-      const double gap = timestamp - previous_timestamp;
-      paced_s += gap > options.max_pace_gap ? options.max_pace_gap : (gap > 0 ? gap : 0);
-      previous_timestamp = timestamp;
-      std::this_thread::sleep_until(loop_start + std::chrono::duration_cast<SteadyClock::duration>(
-                                                     std::chrono::duration<double>(paced_s)));
-    }
+    if (realtime_ && options_.pace) Pace(timestamp);
 
     const auto start = SteadyClock::now();
-    if (!use_features) {
-      extractor->Extract(gray, &keypoints, &descriptors);
-      FinishKeypoints(sensor.camera, depth, &keypoints);
-      extraction_ms.push_back(MillisecondsSince(start));
+    if (!use_features_) {
+      extractor_->Extract(gray, &keypoints, &descriptors);
+      FinishKeypoints(sensor_->camera, depth, &keypoints);
+      extraction_ms_.push_back(MillisecondsSince(start));
     }
     Frame frame(k, timestamp,
-                BuildFrameFeatures(sensor, std::move(keypoints), std::move(descriptors)));
+                BuildFrameFeatures(*sensor_, std::move(keypoints), std::move(descriptors)));
     bool new_keyframe = false;
-    const bool tracked = tracker.Track(std::move(frame), &new_keyframe);
+    const bool tracked = tracker_->Track(std::move(frame), &new_keyframe);
+    TrackStartup& startup = summary_.startup;
     if (tracked && startup.first_pose_frame < 0) {
       startup.first_pose_ms = MillisecondsSince(ProcessStartTime());
       startup.first_pose_frame = static_cast<int64_t>(index);
     }
-    if (tracker.reset_requested()) {
-      // ORB-SLAM2's System::Reset: the mapper drops its work, the map and the
-      // keyframe database are emptied, and the next frame initializes anew.
-      spdlog::warn("track: frame {} lost with {} keyframes in the map; resetting the map", k,
-                   map.num_keyframes());
-      mapper.Reset();
-      closer.Reset();
-      std::lock_guard<std::mutex> lock(map.mutex());
-      map.Clear();
-      database.Clear();
-      tracker.Reset();
-    }
-    tracking_ms.push_back(MillisecondsSince(start));
-    if (!realtime && new_keyframe) {
-      mapper.ProcessQueued();
-      closer.ProcessQueued();
+    if (tracker_->reset_requested()) ResetMap(k);
+    tracking_ms_.push_back(MillisecondsSince(start));
+    if (!realtime_ && new_keyframe) {
+      mapper_->ProcessQueued();
+      closer_->ProcessQueued();
 #ifndef NDEBUG
-      RequireMapInvariants(map, "after the keyframe of frame " + std::to_string(k));
+      RequireMapInvariants(map_, "after the keyframe of frame " + std::to_string(k));
 #endif
     }
-    progress.Advance();
-  }
-  if (realtime && mapping) {
-    mapper.Stop();
-    closer.Stop();
-  }
-  mapper.ProcessQueued();  // Nothing in realtime mode after Stop(); none left in batch.
-  closer.ProcessQueued();
-  progress.Finish();
-  const double loop_s = std::chrono::duration<double>(SteadyClock::now() - loop_start).count();
-
-  if (tracker.state() == Tracker::State::kNotInitialized) {
-    throw AlgorithmError(
-        options.sequence.string() +
-        (tracker.resets() > 0
-             ? ": tracking was lost soon after initialization and never initialized again (" +
-                   std::to_string(tracker.resets()) + " resets)"
-             : ": tracking never initialized: no frame has more than " +
-                   std::to_string(tracker_options.min_initial_keypoints) + " keypoints with " +
-                   std::to_string(tracker_options.min_initial_points) +
-                   " of them with depth (is the depth all zero?)"));
-  }
-  if (!options.load_map.empty() && startup.first_pose_frame < 0) {
-    throw AlgorithmError(options.sequence.string() + ": no frame relocalized in map " +
-                         options.load_map.string() + " (" + std::to_string(frames.size()) +
-                         " frames tried; is it a map of this place?)");
   }
 
-  MapRefinementStats refinement;
-  if (options.refine_map && mapping) {
-    std::lock_guard<std::mutex> lock(map.mutex());
+  // --pace: waits until the frame's time in the sequence has passed since
+  // the loop started. A gap longer than --max-pace-gap is not slept through
+  // (a pause in the recording, sequences glued together): it counts as that
+  // long.
+  void Pace(double timestamp) {
+    const double gap = timestamp - previous_timestamp_;
+    paced_s_ += gap > options_.max_pace_gap ? options_.max_pace_gap : (gap > 0 ? gap : 0);
+    previous_timestamp_ = timestamp;
+    std::this_thread::sleep_until(loop_start_ + std::chrono::duration_cast<SteadyClock::duration>(
+                                                    std::chrono::duration<double>(paced_s_)));
+  }
+
+  // ORB-SLAM2's System::Reset: the mapper drops its work, the map and the
+  // keyframe database are emptied, and the next frame initializes anew.
+  void ResetMap(size_t k) {
+    spdlog::warn("track: frame {} lost with {} keyframes in the map; resetting the map", k,
+                 map_.num_keyframes());
+    mapper_->Reset();
+    closer_->Reset();
+    std::lock_guard<std::mutex> lock(map_.mutex());
+    map_.Clear();
+    database_->Clear();
+    tracker_->Reset();
+  }
+
+  void CheckTrackingStarted() const {
+    if (tracker_->state() == Tracker::State::kNotInitialized) {
+      throw AlgorithmError(
+          options_.sequence.string() +
+          (tracker_->resets() > 0
+               ? ": tracking was lost soon after initialization and never initialized again (" +
+                     std::to_string(tracker_->resets()) + " resets)"
+               : ": tracking never initialized: no frame has more than " +
+                     std::to_string(tracker_options_.min_initial_keypoints) + " keypoints with " +
+                     std::to_string(tracker_options_.min_initial_points) +
+                     " of them with depth (is the depth all zero?)"));
+    }
+    if (!options_.load_map.empty() && summary_.startup.first_pose_frame < 0) {
+      throw AlgorithmError(options_.sequence.string() + ": no frame relocalized in map " +
+                           options_.load_map.string() + " (" + std::to_string(frames_.size()) +
+                           " frames tried; is it a map of this place?)");
+    }
+  }
+
+  void Refine() {
+    std::lock_guard<std::mutex> lock(map_.mutex());
     MapRefinementOptions refine_options;
-    refine_options.depth_fallback = options.ba_depth_fallback;
-    refinement = RefineMap(sensor, &map, refine_options);
+    refine_options.depth_fallback = options_.ba_depth_fallback;
+    refinement_ = RefineMap(*sensor_, &map_, refine_options);
     spdlog::info(
         "track: map refined in {:.0f} ms: {} keyframes, {} points, {} outlier "
         "observations erased, {} steps",
-        refinement.ms, refinement.keyframes, refinement.points, refinement.outliers,
-        refinement.solves.successful_steps);
+        refinement_.ms, refinement_.keyframes, refinement_.points, refinement_.outliers,
+        refinement_.solves.successful_steps);
   }
 
-  // Outputs.
-  summary.frames = frames.size();
-  for (const TrackedFrame& r : tracker.records()) {
-    if (r.tracked) {
-      ++summary.tracked;
-    } else {
-      summary.lost_timestamps.push_back(r.timestamp);
+  void Summarize() {
+    summary_.frames = frames_.size();
+    for (const TrackedFrame& r : tracker_->records()) {
+      if (r.tracked) {
+        ++summary_.tracked;
+      } else {
+        summary_.lost_timestamps.push_back(r.timestamp);
+      }
     }
+    summary_.lost = summary_.frames - summary_.tracked;
+    summary_.keyframes = map_.num_keyframes();
+    summary_.map_points = map_.num_map_points();
   }
-  summary.lost = summary.frames - summary.tracked;
-  summary.keyframes = map.num_keyframes();
-  summary.map_points = map.num_map_points();
 
-  const Trajectory camera_trajectory = ResolveCameraTrajectory(tracker.records());
-  const Trajectory keyframe_trajectory = KeyFrameTrajectory(map);
-  const auto write = [&](const std::string& file, const std::string& content) {
-    std::ofstream out(output.temp_path() / file, std::ios::binary);
+  // A file of the output folder (not yet committed).
+  void Write(const std::string& file, const std::string& content) {
+    std::ofstream out(output_->temp_path() / file, std::ios::binary);
     out << content;
     out.flush();
-    if (!out) throw CantCreateError((options.out / file).string() + ": cannot write");
-  };
-  write("CameraTrajectory.txt", FormatTumTrajectory(camera_trajectory));
-  write("KeyFrameTrajectory.txt", FormatTumTrajectory(keyframe_trajectory));
+    if (!out) throw CantCreateError((options_.out / file).string() + ": cannot write");
+  }
 
-  // The map file, complete but not yet committed (the folder and the map
-  // are committed together at the end).
-  double map_save_ms = 0;
-  size_t map_file_bytes = 0;
-  std::string saved_identity;
-  if (map_output) {
+  void WriteTrajectories() {
+    Write("CameraTrajectory.txt",
+          FormatTumTrajectory(ResolveCameraTrajectory(tracker_->records())));
+    Write("KeyFrameTrajectory.txt", FormatTumTrajectory(KeyFrameTrajectory(map_)));
+  }
+
+  // The map file, complete but not yet committed (Commit does). A map that
+  // breaks an invariant is not written: the --save-map file keeps its content.
+  void WriteMap() {
     const auto save_start = SteadyClock::now();
     nlohmann::json metadata;
     metadata["producer"] = Producer("track");
-    metadata["options"] = options.ToJson();
-    metadata["settings"] = settings.source.string();
-    metadata["frames"] = {{"first", frames.front()}, {"last", frames.back()}};
+    metadata["options"] = options_.ToJson();
+    metadata["settings"] = settings_.source.string();
+    metadata["frames"] = {{"first", frames_.front()}, {"last", frames_.back()}};
     // What this run started from: keyframes and map points with smaller ids
     // came from that map (render's --color age tells them apart).
-    if (!options.load_map.empty()) {
-      metadata["loaded_map"] = {{"file", options.load_map.string()},
-                                {"identity", loaded.identity},
-                                {"next_keyframe_id", loaded.next_keyframe_id},
-                                {"next_map_point_id", loaded.next_map_point_id}};
+    if (!options_.load_map.empty()) {
+      metadata["loaded_map"] = {{"file", options_.load_map.string()},
+                                {"identity", loaded_.identity},
+                                {"next_keyframe_id", loaded_.next_keyframe_id},
+                                {"next_map_point_id", loaded_.next_map_point_id}};
     }
-    // A broken map is not saved: the --save-map file keeps its content.
-    RequireMapInvariants(map, "(" + options.save_map.string() + " not saved)");
-    const MapData data = ToMapData(map, camera, vocabulary, options.vocabulary.filename().string(),
-                                   bow_levels_up, DumpJson(metadata));
-    ValidateMapData(data, options.save_map.string() + " (before saving)");
+    const std::string path = options_.save_map.string();
+    RequireMapInvariants(map_, "(" + path + " not saved)");
+    const MapData data =
+        ToMapData(map_, camera_, vocabulary_, options_.vocabulary.filename().string(),
+                  bow_levels_up_, DumpJson(metadata));
+    ValidateMapData(data, path + " (before saving)");
     const std::vector<uint8_t> bytes = EncodeMap(data);
     {
-      std::ofstream out(map_output->temp_path(), std::ios::binary);
+      std::ofstream out(map_output_->temp_path(), std::ios::binary);
       out.write(reinterpret_cast<const char*>(bytes.data()),
                 static_cast<std::streamsize>(bytes.size()));
       out.flush();
-      if (!out) throw CantCreateError(options.save_map.string() + ": cannot write");
+      if (!out) throw CantCreateError(path + ": cannot write");
     }
-    map_file_bytes = bytes.size();
-    saved_identity = MapIdentity(ReadMapFileInfo(bytes, options.save_map.string()));
-    map_save_ms = MillisecondsSince(save_start);
+    map_file_bytes_ = bytes.size();
+    saved_identity_ = MapIdentity(ReadMapFileInfo(bytes, path));
+    map_save_ms_ = MillisecondsSince(save_start);
     spdlog::info("track: map written for {} in {:.1f} ms ({} keyframes, {} map points, {} bytes)",
-                 options.save_map.string(), map_save_ms, data.keyframes.size(),
-                 data.map_points.size(), bytes.size());
+                 path, map_save_ms_, data.keyframes.size(), data.map_points.size(), bytes.size());
   }
 
-  const LocalMappingCounters& counters = mapper.counters();
-  const TimingSummary tracking = SummarizeTimings(tracking_ms);
-  nlohmann::json report;
-  report["producer"] = Producer("track");
-  report["options"] = options.ToJson();
-  report["vocabulary"] = vocabulary.Identity();
-  report["settings"] = settings.source.string();
-  report["counts"] = {{"frames", summary.frames},
-                      {"tracked", summary.tracked},
-                      {"lost", summary.lost},
-                      {"keyframes", summary.keyframes},
-                      {"map_points", summary.map_points},
-                      {"keyframes_created", map.num_created_keyframes()},
-                      {"keyframes_culled", counters.culled_keyframes},
-                      {"relocalizations", tracker.relocalizations()},
-                      {"loop_closures", closer.counters().loops.size()},
-                      {"resets", tracker.resets()}};
-  report["lost_timestamps"] = summary.lost_timestamps;
-  report["local_mapping"] = {{"keyframes_processed", counters.keyframes},
-                             {"triangulated_points", counters.triangulated_points},
-                             {"fused_points", counters.fused_points},
-                             {"culled_recent_points", counters.culled_points},
-                             {"bundle_adjustments", counters.bundle_adjustments},
-                             {"aborted_bundle_adjustments", counters.aborted_bundle_adjustments},
-                             {"max_queue", counters.max_queue}};
-  auto solves_json = [](const SolveCounts& c) {
-    return nlohmann::json{{"solves", c.solves},
-                          {"successful_steps", c.successful_steps},
-                          {"at_step_limit", c.at_step_limit},
-                          {"beyond_iterations", c.beyond_iterations}};
-  };
-  const LoopClosingCounters& loops = closer.counters();
-  nlohmann::json loop_list = nlohmann::json::array();
-  std::vector<double> global_ba_ms;
-  for (const LoopClosure& l : loops.loops) {
-    loop_list.push_back({{"keyframe", l.keyframe},
-                         {"matched_keyframe", l.matched},
-                         {"timestamp", l.timestamp},
-                         {"matched_timestamp", l.matched_timestamp},
-                         {"bow_matches", l.bow_matches},
-                         {"ransac_inliers", l.ransac_inliers},
-                         {"inliers", l.optimized_inliers},
-                         {"matches", l.matches},
-                         {"correction_m", l.correction_m},
-                         {"correction_deg", l.correction_deg},
-                         {"correction_ms", l.correction_ms},
-                         {"global_ba_ms", l.global_ba_ms},
-                         {"global_ba_aborted", l.global_ba_aborted}});
-    if (l.global_ba_ms > 0) global_ba_ms.push_back(l.global_ba_ms);
+  // run.json: what ran on what, counts, module statistics, timings, map.
+  nlohmann::json Report() const {
+    nlohmann::json report;
+    report["producer"] = Producer("track");
+    report["options"] = options_.ToJson();
+    report["vocabulary"] = vocabulary_.Identity();
+    report["settings"] = settings_.source.string();
+    report["counts"] = {{"frames", summary_.frames},
+                        {"tracked", summary_.tracked},
+                        {"lost", summary_.lost},
+                        {"keyframes", summary_.keyframes},
+                        {"map_points", summary_.map_points},
+                        {"keyframes_created", map_.num_created_keyframes()},
+                        {"keyframes_culled", mapper_->counters().culled_keyframes},
+                        {"relocalizations", tracker_->relocalizations()},
+                        {"loop_closures", closer_->counters().loops.size()},
+                        {"resets", tracker_->resets()}};
+    report["lost_timestamps"] = summary_.lost_timestamps;
+    const LocalMappingCounters& counters = mapper_->counters();
+    report["local_mapping"] = {{"keyframes_processed", counters.keyframes},
+                               {"triangulated_points", counters.triangulated_points},
+                               {"fused_points", counters.fused_points},
+                               {"culled_recent_points", counters.culled_points},
+                               {"bundle_adjustments", counters.bundle_adjustments},
+                               {"aborted_bundle_adjustments", counters.aborted_bundle_adjustments},
+                               {"max_queue", counters.max_queue}};
+    report["loop_closing"] = LoopClosingReport();
+    report["optimization"] = OptimizationReport();
+    report["timings"] = TimingsReport();
+    report["startup"] = StartupReport();
+    report["map"] = MapReport();
+    report["peak_rss_mb"] = PeakRssMegabytes();
+    return report;
   }
-  report["loop_closing"] = {{"enabled", options.loop_closing},
-                            {"keyframes_checked", loops.keyframes},
-                            {"detections", loops.detections},
-                            {"geometric_rejections", loops.geometric_fails},
-                            {"loops", loop_list}};
-  report["optimization"] = {{"pose", solves_json(tracker.pose_solves())},
-                            {"local_ba", solves_json(counters.bundle_adjustment_solves)},
-                            {"essential_graph", solves_json(loops.essential_graph)},
-                            {"global_ba", solves_json(loops.global_ba)},
-                            {"refinement",
-                             {{"enabled", options.refine_map && mapping},
-                              {"keyframes", refinement.keyframes},
-                              {"points", refinement.points},
-                              {"observations", refinement.observations},
-                              {"outliers_erased", refinement.outliers},
-                              {"initial_cost", refinement.initial_cost},
-                              {"final_cost", refinement.final_cost},
-                              {"ms", refinement.ms},
-                              {"solves", solves_json(refinement.solves)}}}};
-  report["timings"] = {
-      {"tracking", ToJson(tracking)},
-      {"extraction", ToJson(SummarizeTimings(extraction_ms))},
-      {"relocalization", ToJson(SummarizeTimings(tracker.relocalization_ms()))},
-      {"local_mapping", ToJson(SummarizeTimings(counters.keyframe_ms))},
-      {"loop_detection", ToJson(SummarizeTimings(loops.detection_ms))},
-      {"global_ba", ToJson(SummarizeTimings(global_ba_ms))},
-      {"image_loading", ToJson(SummarizeTimings(loading_ms))},
-      {"loop_s", loop_s},
-      {"total_s", std::chrono::duration<double>(SteadyClock::now() - run_start).count()},
-      {"frame_rate_hz", frames.size() / loop_s}};
-  report["startup"] = {{"process_to_run_ms", startup_process_to_run_ms},
-                       {"vocabulary_load_ms", startup.vocabulary_load_ms},
-                       {"map_load_ms", startup.map_load_ms},
-                       {"map_read_ms", startup.map_read_ms},
-                       {"first_pose_ms", startup.first_pose_ms},
-                       {"first_pose_frame", startup.first_pose_frame}};
-  {
-    // Loaded objects still in the map, and objects this run added.
+
+  nlohmann::json LoopClosingReport() const {
+    const LoopClosingCounters& loops = closer_->counters();
+    nlohmann::json loop_list = nlohmann::json::array();
+    for (const LoopClosure& l : loops.loops) {
+      loop_list.push_back({{"keyframe", l.keyframe},
+                           {"matched_keyframe", l.matched},
+                           {"timestamp", l.timestamp},
+                           {"matched_timestamp", l.matched_timestamp},
+                           {"bow_matches", l.bow_matches},
+                           {"ransac_inliers", l.ransac_inliers},
+                           {"inliers", l.optimized_inliers},
+                           {"matches", l.matches},
+                           {"correction_m", l.correction_m},
+                           {"correction_deg", l.correction_deg},
+                           {"correction_ms", l.correction_ms},
+                           {"global_ba_ms", l.global_ba_ms},
+                           {"global_ba_aborted", l.global_ba_aborted}});
+    }
+    return {{"enabled", options_.loop_closing},
+            {"keyframes_checked", loops.keyframes},
+            {"detections", loops.detections},
+            {"geometric_rejections", loops.geometric_fails},
+            {"loops", loop_list}};
+  }
+
+  nlohmann::json OptimizationReport() const {
+    const auto solves_json = [](const SolveCounts& c) {
+      return nlohmann::json{{"solves", c.solves},
+                            {"successful_steps", c.successful_steps},
+                            {"at_step_limit", c.at_step_limit},
+                            {"beyond_iterations", c.beyond_iterations}};
+    };
+    const LoopClosingCounters& loops = closer_->counters();
+    return {{"pose", solves_json(tracker_->pose_solves())},
+            {"local_ba", solves_json(mapper_->counters().bundle_adjustment_solves)},
+            {"essential_graph", solves_json(loops.essential_graph)},
+            {"global_ba", solves_json(loops.global_ba)},
+            {"refinement",
+             {{"enabled", options_.refine_map && mapping_},
+              {"keyframes", refinement_.keyframes},
+              {"points", refinement_.points},
+              {"observations", refinement_.observations},
+              {"outliers_erased", refinement_.outliers},
+              {"initial_cost", refinement_.initial_cost},
+              {"final_cost", refinement_.final_cost},
+              {"ms", refinement_.ms},
+              {"solves", solves_json(refinement_.solves)}}}};
+  }
+
+  nlohmann::json TimingsReport() const {
+    std::vector<double> global_ba_ms;
+    for (const LoopClosure& l : closer_->counters().loops) {
+      if (l.global_ba_ms > 0) global_ba_ms.push_back(l.global_ba_ms);
+    }
+    return {{"tracking", ToJson(SummarizeTimings(tracking_ms_))},
+            {"extraction", ToJson(SummarizeTimings(extraction_ms_))},
+            {"relocalization", ToJson(SummarizeTimings(tracker_->relocalization_ms()))},
+            {"local_mapping", ToJson(SummarizeTimings(mapper_->counters().keyframe_ms))},
+            {"loop_detection", ToJson(SummarizeTimings(closer_->counters().detection_ms))},
+            {"global_ba", ToJson(SummarizeTimings(global_ba_ms))},
+            {"image_loading", ToJson(SummarizeTimings(loading_ms_))},
+            {"loop_s", loop_s_},
+            {"total_s", std::chrono::duration<double>(SteadyClock::now() - run_start_).count()},
+            {"frame_rate_hz", frames_.size() / loop_s_}};
+  }
+
+  nlohmann::json StartupReport() const {
+    const TrackStartup& startup = summary_.startup;
+    return {{"process_to_run_ms", startup_process_to_run_ms_},
+            {"vocabulary_load_ms", startup.vocabulary_load_ms},
+            {"map_load_ms", startup.map_load_ms},
+            {"map_read_ms", startup.map_read_ms},
+            {"first_pose_ms", startup.first_pose_ms},
+            {"first_pose_frame", startup.first_pose_frame}};
+  }
+
+  // Loaded objects still in the map, and objects this run added.
+  nlohmann::json MapReport() const {
     size_t kept_keyframes = 0, kept_points = 0, added_keyframes = 0, added_points = 0;
-    for (const KeyFrame* kf : map.KeyFrames()) {
-      (kf->id() < loaded.next_keyframe_id ? kept_keyframes : added_keyframes) += 1;
+    for (const KeyFrame* kf : map_.KeyFrames()) {
+      (kf->id() < loaded_.next_keyframe_id ? kept_keyframes : added_keyframes) += 1;
     }
-    for (const MapPoint* p : map.MapPoints()) {
-      (p->id() < loaded.next_map_point_id ? kept_points : added_points) += 1;
+    for (const MapPoint* p : map_.MapPoints()) {
+      (p->id() < loaded_.next_map_point_id ? kept_points : added_points) += 1;
     }
-    report["map"] = {{"loaded", options.load_map.string()},
-                     {"loaded_identity", loaded.identity},
-                     {"mode", options.load_map.empty()    ? "new map"
-                              : options.localization_only ? "localization only"
-                                                          : "restore mapping"},
-                     {"keyframes_loaded", loaded.keyframes},
-                     {"map_points_loaded", loaded.map_points},
-                     {"keyframes_added", added_keyframes},
-                     {"map_points_added", added_points},
-                     {"keyframes_culled", loaded.keyframes - kept_keyframes},
-                     {"map_points_culled", loaded.map_points - kept_points},
-                     {"changed_points_culled", counters.culled_changed_points},
-                     {"visual_odometry_frames", tracker.visual_odometry_frames()},
-                     {"saved", options.save_map.string()},
-                     {"saved_identity", saved_identity},
-                     {"save_ms", map_save_ms},
-                     {"file_bytes", map_file_bytes}};
+    return {{"loaded", options_.load_map.string()},
+            {"loaded_identity", loaded_.identity},
+            {"mode", options_.load_map.empty()    ? "new map"
+                     : options_.localization_only ? "localization only"
+                                                  : "restore mapping"},
+            {"keyframes_loaded", loaded_.keyframes},
+            {"map_points_loaded", loaded_.map_points},
+            {"keyframes_added", added_keyframes},
+            {"map_points_added", added_points},
+            {"keyframes_culled", loaded_.keyframes - kept_keyframes},
+            {"map_points_culled", loaded_.map_points - kept_points},
+            {"changed_points_culled", mapper_->counters().culled_changed_points},
+            {"visual_odometry_frames", tracker_->visual_odometry_frames()},
+            {"saved", options_.save_map.string()},
+            {"saved_identity", saved_identity_},
+            {"save_ms", map_save_ms_},
+            {"file_bytes", map_file_bytes_}};
   }
-  report["peak_rss_mb"] = PeakRssMegabytes();
-  write("run.json", DumpJson(report, 2) + "\n");
+
   // The map and the folder are committed together, the map first: a failure
   // before leaves both as they were (the --load-map file too, when the map
   // replaces it); only a failure between the two renames leaves the new map
   // beside the old run folder.
-  if (map_output) map_output->Commit();
-  output.Commit();
-
-  if (summary.lost > 0) {
-    spdlog::warn("track: {} of {} frames lost (first at {:.6f} s); they are left out of {}",
-                 summary.lost, summary.frames, summary.lost_timestamps.front(),
-                 (options.out / "CameraTrajectory.txt").string());
+  void Commit() {
+    if (map_output_) map_output_->Commit();
+    output_->Commit();
   }
-  spdlog::info(
-      "track: {}/{} frames tracked, {} keyframes, {} map points; tracking median {:.2f} ms, "
-      "p95 {:.2f} ms; {:.1f} frames/s",
-      summary.tracked, summary.frames, summary.keyframes, summary.map_points, tracking.median,
-      tracking.p95, frames.size() / loop_s);
-  return summary;
-}
+
+  void LogSummary() const {
+    if (summary_.lost > 0) {
+      spdlog::warn("track: {} of {} frames lost (first at {:.6f} s); they are left out of {}",
+                   summary_.lost, summary_.frames, summary_.lost_timestamps.front(),
+                   (options_.out / "CameraTrajectory.txt").string());
+    }
+    const TimingSummary tracking = SummarizeTimings(tracking_ms_);
+    spdlog::info(
+        "track: {}/{} frames tracked, {} keyframes, {} map points; tracking median {:.2f} ms, "
+        "p95 {:.2f} ms; {:.1f} frames/s",
+        summary_.tracked, summary_.frames, summary_.keyframes, summary_.map_points, tracking.median,
+        tracking.p95, frames_.size() / loop_s_);
+  }
+
+  const TrackOptions& options_;
+  const SteadyClock::time_point run_start_ = SteadyClock::now();
+  const double startup_process_to_run_ms_ = MillisecondsSince(ProcessStartTime());
+  const bool realtime_ = options_.mode == "realtime";
+  const bool mapping_ = !options_.localization_only;
+  // Inputs (OpenInputs).
+  Settings settings_;
+  RgbdSequence sequence_;
+  bool use_features_ = false;
+  FeaturesFile features_;
+  std::vector<size_t> frames_;  // Sequence index of each frame to track.
+  Vocabulary vocabulary_;
+  int width_ = 0, height_ = 0;
+  std::optional<SensorModel> sensor_;
+  // Outputs, reserved at start (OpenOutputs), committed at the end.
+  std::optional<AtomicOutput> output_, map_output_;
+  // The SLAM objects (BuildModules, LoadMap); the modules after the map.
+  Map map_;
+  std::unique_ptr<KeyFrameDatabase> database_;
+  int bow_levels_up_ = 0;
+  TrackerOptions tracker_options_;
+  std::unique_ptr<LocalMapper> mapper_;
+  std::unique_ptr<Tracker> tracker_;
+  std::unique_ptr<LoopCloser> closer_;
+  MapCamera camera_;
+  LoadedMap loaded_;
+  // The frame loop (TrackFrames).
+  std::unique_ptr<ImagePrefetcher> prefetcher_;
+  std::unique_ptr<OrbExtractor> extractor_;
+  std::vector<double> tracking_ms_, extraction_ms_, loading_ms_;
+  SteadyClock::time_point loop_start_;
+  double loop_s_ = 0;
+  double paced_s_ = 0, previous_timestamp_ = 0;  // --pace: sequence time delivered so far.
+  // Results.
+  MapRefinementStats refinement_;
+  TrackSummary summary_;
+  double map_save_ms_ = 0;
+  size_t map_file_bytes_ = 0;
+  std::string saved_identity_;
+};
+
+}  // namespace
+
+TrackSummary RunTrack(const TrackOptions& options) { return TrackSession(options).Run(); }
 
 }  // namespace rrslam
