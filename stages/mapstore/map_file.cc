@@ -765,260 +765,319 @@ void CheckMapNextIds(const MapData& map, const std::string& source) {
   check("next_map_point_id", map.next_map_point_id, map.map_points.size(), "map points");
 }
 
-void ValidateMapData(const MapData& map, const std::string& source) {
-  auto fail = [&](const std::string& what) { throw DataError(source + ": " + what); };
-  const int32_t orb_levels = map.camera.orb_levels;
-  const uint64_t num_words = map.vocabulary.num_words;
-  CheckMapNextIds(map, source);
+namespace {
 
+// ValidateMapData's checks, in the order they run; each throws DataError
+// "<source>: <what>" on the first violation. Ids first (sorted lists, which
+// later checks search), then each keyframe, the tree, each map point.
+class MapValidator {
+ public:
+  MapValidator(const MapData& map, const std::string& source) : map_(map), source_(source) {}
+
+  void Run() {
+    CheckMapNextIds(map_, source_);
+    CheckKeyFrameIds();
+    CheckMapPointIds();
+    kf_index_ = IdIndex(kf_ids_);
+    mp_index_ = IdIndex(mp_ids_);
+    for (const KeyFrameRecord& kf : map_.keyframes) {
+      CheckKeyFrameContent(kf);
+      CheckKeyFrameWords(kf);
+      CheckKeyFrameEdges(kf);
+    }
+    if (!map_.keyframes.empty() && roots_ == 0)
+      Fail("spanning tree has no root (every keyframe has a parent)");
+    CheckParentChains();
+    CheckMapPoints();
+    CheckEveryKeypointListed();
+  }
+
+ private:
+  [[noreturn]] void Fail(const std::string& what) const { throw DataError(source_ + ": " + what); }
+  void CheckKeyFrameIds();
+  void CheckMapPointIds();
+  void CheckKeyFrameContent(const KeyFrameRecord& kf);
+  void CheckKeyFrameWords(const KeyFrameRecord& kf) const;
+  void CheckKeyFrameEdges(const KeyFrameRecord& kf);
+  void CheckParentChains() const;
+  void CheckMapPoints();
+  void CheckEveryKeypointListed() const;
+
+  const MapData& map_;
+  const std::string& source_;
   // Ids: unique, sorted, below the next ids.
-  std::vector<uint64_t> kf_ids(map.keyframes.size()), mp_ids(map.map_points.size());
-  for (size_t i = 0; i < map.keyframes.size(); ++i) {
-    const uint64_t id = map.keyframes[i].id;
+  std::vector<uint64_t> kf_ids_, mp_ids_;
+  IdIndex kf_index_{{}}, mp_index_{{}};
+  size_t roots_ = 0;
+  uint64_t root_ = kNoId;
+  uint64_t referenced_ = 0;    // Keypoints with a map point.
+  uint64_t observations_ = 0;  // Observations listed by the map points.
+};
+
+// Keyframe ids, and each keyframe's sorted lists (the symmetry checks search them).
+void MapValidator::CheckKeyFrameIds() {
+  kf_ids_.resize(map_.keyframes.size());
+  for (size_t i = 0; i < map_.keyframes.size(); ++i) {
+    const uint64_t id = map_.keyframes[i].id;
     if (id == kNoId) {
-      fail("keyframe at index " + std::to_string(i) + ": id is the reserved 'none' id");
+      Fail("keyframe at index " + std::to_string(i) + ": id is the reserved 'none' id");
     }
-    if (i > 0 && id <= kf_ids[i - 1]) {
-      fail("keyframe ids not sorted and unique: " + KfText(id) + " follows " +
-           KfText(kf_ids[i - 1]));
+    if (i > 0 && id <= kf_ids_[i - 1]) {
+      Fail("keyframe ids not sorted and unique: " + KfText(id) + " follows " +
+           KfText(kf_ids_[i - 1]));
     }
-    if (id >= map.next_keyframe_id) {
-      fail(KfText(id) + ": id not below next_keyframe_id " + std::to_string(map.next_keyframe_id));
+    if (id >= map_.next_keyframe_id) {
+      Fail(KfText(id) + ": id not below next_keyframe_id " + std::to_string(map_.next_keyframe_id));
     }
-    kf_ids[i] = id;
+    kf_ids_[i] = id;
     // Sorted lists first: the symmetry checks below search them.
-    const KeyFrameRecord& kf = map.keyframes[i];
+    const KeyFrameRecord& kf = map_.keyframes[i];
     for (size_t k = 1; k < kf.connections.size(); ++k) {
       if (kf.connections[k].first <= kf.connections[k - 1].first) {
-        fail(KfText(id) + ": connections not sorted by id and unique (" +
+        Fail(KfText(id) + ": connections not sorted by id and unique (" +
              KfText(kf.connections[k].first) + " follows " + KfText(kf.connections[k - 1].first) +
              ")");
       }
     }
     for (size_t k = 1; k < kf.loop_edges.size(); ++k) {
       if (kf.loop_edges[k] <= kf.loop_edges[k - 1]) {
-        fail(KfText(id) + ": loop edges not sorted by id and unique (" + KfText(kf.loop_edges[k]) +
+        Fail(KfText(id) + ": loop edges not sorted by id and unique (" + KfText(kf.loop_edges[k]) +
              " follows " + KfText(kf.loop_edges[k - 1]) + ")");
       }
     }
   }
-  for (size_t i = 0; i < map.map_points.size(); ++i) {
-    const uint64_t id = map.map_points[i].id;
+}
+
+// Map point ids, and each point's observations sorted (the keyframe checks search them).
+void MapValidator::CheckMapPointIds() {
+  mp_ids_.resize(map_.map_points.size());
+  for (size_t i = 0; i < map_.map_points.size(); ++i) {
+    const uint64_t id = map_.map_points[i].id;
     if (id == kNoId)
-      fail("map point at index " + std::to_string(i) + ": id is the reserved 'none' id");
-    if (i > 0 && id <= mp_ids[i - 1]) {
-      fail("map point ids not sorted and unique: " + MpText(id) + " follows " +
-           MpText(mp_ids[i - 1]));
+      Fail("map point at index " + std::to_string(i) + ": id is the reserved 'none' id");
+    if (i > 0 && id <= mp_ids_[i - 1]) {
+      Fail("map point ids not sorted and unique: " + MpText(id) + " follows " +
+           MpText(mp_ids_[i - 1]));
     }
-    if (id >= map.next_map_point_id) {
-      fail(MpText(id) + ": id not below next_map_point_id " +
-           std::to_string(map.next_map_point_id));
+    if (id >= map_.next_map_point_id) {
+      Fail(MpText(id) + ": id not below next_map_point_id " +
+           std::to_string(map_.next_map_point_id));
     }
-    mp_ids[i] = id;
+    mp_ids_[i] = id;
     // Sorted observations first: the keyframe checks below search them.
-    const auto& obs = map.map_points[i].observations;
+    const auto& obs = map_.map_points[i].observations;
     for (size_t k = 1; k < obs.size(); ++k) {
       if (obs[k].first <= obs[k - 1].first) {
-        fail(MpText(id) + ": observations not sorted by keyframe id and unique (" +
+        Fail(MpText(id) + ": observations not sorted by keyframe id and unique (" +
              KfText(obs[k].first) + " follows " + KfText(obs[k - 1].first) + ")");
       }
     }
   }
+}
 
-  const IdIndex kf_index(kf_ids), mp_index(mp_ids);
+// Sizes, a finite unit pose, finite keypoints within the pyramid, map points in the map.
+void MapValidator::CheckKeyFrameContent(const KeyFrameRecord& kf) {
+  const int32_t orb_levels = map_.camera.orb_levels;
+  const std::string k = KfText(kf.id);
+  const size_t n = kf.keypoints.size();
+  if (kf.descriptors.size() != n || kf.map_point_ids.size() != n) {
+    Fail(k + ": " + std::to_string(n) + " keypoints but " + std::to_string(kf.descriptors.size()) +
+         " descriptors and " + std::to_string(kf.map_point_ids.size()) + " map point ids");
+  }
+  const MapPose& T = kf.T_cam_world;
+  if (!Finite(kf.timestamp)) Fail(k + ": timestamp is not finite");
+  if (!(Finite(T.qw) && Finite(T.qx) && Finite(T.qy) && Finite(T.qz) && Finite(T.tx) &&
+        Finite(T.ty) && Finite(T.tz))) {
+    Fail(k + ": pose T_cam_world is not finite");
+  }
+  const double norm = std::sqrt(T.qw * T.qw + T.qx * T.qx + T.qy * T.qy + T.qz * T.qz);
+  if (std::abs(norm - 1.0) > 1e-6) {
+    char text[64];
+    std::snprintf(text, sizeof(text), "%.9g", norm);
+    Fail(k + ": pose quaternion has norm " + text + ", not 1 (within 1e-6)");
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const MapKeypoint& p = kf.keypoints[i];
+    if (!(std::isfinite(p.pixel_x) && std::isfinite(p.pixel_y) && std::isfinite(p.undistorted_x) &&
+          std::isfinite(p.undistorted_y) && std::isfinite(p.angle_deg) &&
+          std::isfinite(p.response) && std::isfinite(p.depth) && std::isfinite(p.u_right))) {
+      Fail(k + " keypoint " + std::to_string(i) + ": a value is not finite");
+    }
+    if (p.octave >= orb_levels) {
+      Fail(k + " keypoint " + std::to_string(i) + ": octave " + std::to_string(p.octave) +
+           " not below the camera's ORB levels " + std::to_string(orb_levels));
+    }
+    const uint64_t mp_id = kf.map_point_ids[i];
+    if (mp_id == kNoId) continue;
+    if (mp_index_.Find(mp_id) < 0) {
+      Fail(k + " keypoint " + std::to_string(i) + " has " + MpText(mp_id) +
+           ", which is not in the map");
+    }
+    ++referenced_;
+  }
+}
 
-  // Keyframes.
-  size_t roots = 0;
-  uint64_t root = kNoId;
-  uint64_t referenced = 0;  // Keypoints with a map point.
-  for (const KeyFrameRecord& kf : map.keyframes) {
-    const std::string k = KfText(kf.id);
-    const size_t n = kf.keypoints.size();
-    if (kf.descriptors.size() != n || kf.map_point_ids.size() != n) {
-      fail(k + ": " + std::to_string(n) + " keypoints but " +
-           std::to_string(kf.descriptors.size()) + " descriptors and " +
-           std::to_string(kf.map_point_ids.size()) + " map point ids");
+// Bag of words and feature vector: sorted, within the vocabulary and the keypoints.
+void MapValidator::CheckKeyFrameWords(const KeyFrameRecord& kf) const {
+  const std::string k = KfText(kf.id);
+  const size_t n = kf.keypoints.size();
+  const uint64_t num_words = map_.vocabulary.num_words;
+  for (size_t i = 0; i < kf.bow.size(); ++i) {
+    const auto& [word, value] = kf.bow[i];
+    if (i > 0 && word <= kf.bow[i - 1].first) {
+      Fail(k + ": bag of words not sorted by word (word " + std::to_string(word) + " follows " +
+           std::to_string(kf.bow[i - 1].first) + ")");
     }
-    const MapPose& T = kf.T_cam_world;
-    if (!Finite(kf.timestamp)) fail(k + ": timestamp is not finite");
-    if (!(Finite(T.qw) && Finite(T.qx) && Finite(T.qy) && Finite(T.qz) && Finite(T.tx) &&
-          Finite(T.ty) && Finite(T.tz))) {
-      fail(k + ": pose T_cam_world is not finite");
+    if (word >= num_words) {
+      Fail(k + ": bag of words has word " + std::to_string(word) + ", not below the " +
+           std::to_string(num_words) + " words of the vocabulary");
     }
-    const double norm = std::sqrt(T.qw * T.qw + T.qx * T.qx + T.qy * T.qy + T.qz * T.qz);
-    if (std::abs(norm - 1.0) > 1e-6) {
-      char text[64];
-      std::snprintf(text, sizeof(text), "%.9g", norm);
-      fail(k + ": pose quaternion has norm " + text + ", not 1 (within 1e-6)");
+    if (!Finite(value))
+      Fail(k + ": bag of words value of word " + std::to_string(word) + " is not finite");
+  }
+  for (size_t g = 0; g < kf.feature_vector.size(); ++g) {
+    const auto& [node, list] = kf.feature_vector[g];
+    if (g > 0 && node <= kf.feature_vector[g - 1].first) {
+      Fail(k + ": feature vector not sorted by node (node " + std::to_string(node) + " follows " +
+           std::to_string(kf.feature_vector[g - 1].first) + ")");
     }
-    for (size_t i = 0; i < n; ++i) {
-      const MapKeypoint& p = kf.keypoints[i];
-      if (!(std::isfinite(p.pixel_x) && std::isfinite(p.pixel_y) &&
-            std::isfinite(p.undistorted_x) && std::isfinite(p.undistorted_y) &&
-            std::isfinite(p.angle_deg) && std::isfinite(p.response) && std::isfinite(p.depth) &&
-            std::isfinite(p.u_right))) {
-        fail(k + " keypoint " + std::to_string(i) + ": a value is not finite");
+    for (size_t j = 0; j < list.size(); ++j) {
+      if (list[j] >= n) {
+        Fail(k + ": feature vector node " + std::to_string(node) + " has keypoint " +
+             std::to_string(list[j]) + ", not below its " + std::to_string(n) + " keypoints");
       }
-      if (p.octave >= orb_levels) {
-        fail(k + " keypoint " + std::to_string(i) + ": octave " + std::to_string(p.octave) +
-             " not below the camera's ORB levels " + std::to_string(orb_levels));
+      if (j > 0 && list[j] <= list[j - 1]) {
+        Fail(k + ": feature vector node " + std::to_string(node) +
+             " keypoint indices not sorted and unique");
       }
-      const uint64_t mp_id = kf.map_point_ids[i];
-      if (mp_id == kNoId) continue;
-      if (mp_index.Find(mp_id) < 0) {
-        fail(k + " keypoint " + std::to_string(i) + " has " + MpText(mp_id) +
-             ", which is not in the map");
-      }
-      ++referenced;
-    }
-    for (size_t i = 0; i < kf.bow.size(); ++i) {
-      const auto& [word, value] = kf.bow[i];
-      if (i > 0 && word <= kf.bow[i - 1].first) {
-        fail(k + ": bag of words not sorted by word (word " + std::to_string(word) + " follows " +
-             std::to_string(kf.bow[i - 1].first) + ")");
-      }
-      if (word >= num_words) {
-        fail(k + ": bag of words has word " + std::to_string(word) + ", not below the " +
-             std::to_string(num_words) + " words of the vocabulary");
-      }
-      if (!Finite(value))
-        fail(k + ": bag of words value of word " + std::to_string(word) + " is not finite");
-    }
-    for (size_t g = 0; g < kf.feature_vector.size(); ++g) {
-      const auto& [node, list] = kf.feature_vector[g];
-      if (g > 0 && node <= kf.feature_vector[g - 1].first) {
-        fail(k + ": feature vector not sorted by node (node " + std::to_string(node) + " follows " +
-             std::to_string(kf.feature_vector[g - 1].first) + ")");
-      }
-      for (size_t j = 0; j < list.size(); ++j) {
-        if (list[j] >= n) {
-          fail(k + ": feature vector node " + std::to_string(node) + " has keypoint " +
-               std::to_string(list[j]) + ", not below its " + std::to_string(n) + " keypoints");
-        }
-        if (j > 0 && list[j] <= list[j - 1]) {
-          fail(k + ": feature vector node " + std::to_string(node) +
-               " keypoint indices not sorted and unique");
-        }
-      }
-    }
-    for (size_t i = 0; i < kf.connections.size(); ++i) {
-      const auto& [other, weight] = kf.connections[i];
-      if (other == kf.id) fail(k + ": connected to itself");
-      const int64_t o = kf_index.Find(other);
-      if (o < 0) fail(k + ": connected to " + KfText(other) + ", which is not in the map");
-      const auto& back = map.keyframes[o].connections;
-      const auto it = std::lower_bound(
-          back.begin(), back.end(), kf.id,
-          [](const std::pair<uint64_t, int32_t>& c, uint64_t id) { return c.first < id; });
-      if (it == back.end() || it->first != kf.id) {
-        fail("covisibility not symmetric: " + k + " lists " + KfText(other) + " (weight " +
-             std::to_string(weight) + ") but " + KfText(other) + " does not list " + k);
-      }
-      if (it->second != weight) {
-        fail("covisibility not symmetric: " + k + " lists " + KfText(other) + " with weight " +
-             std::to_string(weight) + " but " + KfText(other) + " lists " + k + " with weight " +
-             std::to_string(it->second));
-      }
-    }
-    for (size_t i = 0; i < kf.loop_edges.size(); ++i) {
-      const uint64_t other = kf.loop_edges[i];
-      if (other == kf.id) fail(k + ": loop edge to itself");
-      const int64_t o = kf_index.Find(other);
-      if (o < 0) fail(k + ": loop edge to " + KfText(other) + ", which is not in the map");
-      const auto& back = map.keyframes[o].loop_edges;
-      if (!std::binary_search(back.begin(), back.end(), kf.id)) {
-        fail("loop edges not symmetric: " + k + " lists " + KfText(other) + " but " +
-             KfText(other) + " does not list " + k);
-      }
-    }
-    if (kf.parent == kNoId) {
-      ++roots;
-      if (roots > 1) {
-        fail("spanning tree has more than one root: " + KfText(root) + " and " + k +
-             " have no parent");
-      }
-      root = kf.id;
-    } else if (kf.parent == kf.id) {
-      fail(k + ": its own spanning-tree parent");
-    } else if (kf_index.Find(kf.parent) < 0) {
-      fail(k + ": parent " + KfText(kf.parent) + " is not in the map");
     }
   }
-  if (!map.keyframes.empty() && roots == 0)
-    fail("spanning tree has no root (every keyframe has a parent)");
-  // Parent chains: 0 unvisited, 1 on the current chain, 2 reaches the root.
-  {
-    std::vector<uint8_t> state(map.keyframes.size(), 0);
-    std::vector<size_t> chain;
-    for (size_t start = 0; start < map.keyframes.size(); ++start) {
-      chain.clear();
-      size_t i = start;
-      while (state[i] == 0) {
-        state[i] = 1;
-        chain.push_back(i);
-        const uint64_t parent = map.keyframes[i].parent;
-        if (parent == kNoId) break;
-        i = static_cast<size_t>(kf_index.Find(parent));  // Exists: checked above.
-        if (state[i] == 1) {
-          fail("spanning tree has a cycle through " + KfText(map.keyframes[i].id) +
-               " (its parent chain never reaches the root " + KfText(root) + ")");
-        }
-      }
-      for (size_t j : chain) state[j] = 2;
+}
+
+// Covisibility and loop edges symmetric; one root; parents in the map.
+void MapValidator::CheckKeyFrameEdges(const KeyFrameRecord& kf) {
+  const std::string k = KfText(kf.id);
+  for (size_t i = 0; i < kf.connections.size(); ++i) {
+    const auto& [other, weight] = kf.connections[i];
+    if (other == kf.id) Fail(k + ": connected to itself");
+    const int64_t o = kf_index_.Find(other);
+    if (o < 0) Fail(k + ": connected to " + KfText(other) + ", which is not in the map");
+    const auto& back = map_.keyframes[o].connections;
+    const auto it = std::lower_bound(
+        back.begin(), back.end(), kf.id,
+        [](const std::pair<uint64_t, int32_t>& c, uint64_t id) { return c.first < id; });
+    if (it == back.end() || it->first != kf.id) {
+      Fail("covisibility not symmetric: " + k + " lists " + KfText(other) + " (weight " +
+           std::to_string(weight) + ") but " + KfText(other) + " does not list " + k);
+    }
+    if (it->second != weight) {
+      Fail("covisibility not symmetric: " + k + " lists " + KfText(other) + " with weight " +
+           std::to_string(weight) + " but " + KfText(other) + " lists " + k + " with weight " +
+           std::to_string(it->second));
     }
   }
+  for (size_t i = 0; i < kf.loop_edges.size(); ++i) {
+    const uint64_t other = kf.loop_edges[i];
+    if (other == kf.id) Fail(k + ": loop edge to itself");
+    const int64_t o = kf_index_.Find(other);
+    if (o < 0) Fail(k + ": loop edge to " + KfText(other) + ", which is not in the map");
+    const auto& back = map_.keyframes[o].loop_edges;
+    if (!std::binary_search(back.begin(), back.end(), kf.id)) {
+      Fail("loop edges not symmetric: " + k + " lists " + KfText(other) + " but " + KfText(other) +
+           " does not list " + k);
+    }
+  }
+  if (kf.parent == kNoId) {
+    ++roots_;
+    if (roots_ > 1) {
+      Fail("spanning tree has more than one root: " + KfText(root_) + " and " + k +
+           " have no parent");
+    }
+    root_ = kf.id;
+  } else if (kf.parent == kf.id) {
+    Fail(k + ": its own spanning-tree parent");
+  } else if (kf_index_.Find(kf.parent) < 0) {
+    Fail(k + ": parent " + KfText(kf.parent) + " is not in the map");
+  }
+}
 
-  // Map points.
-  uint64_t observations = 0;
-  for (const MapPointRecord& mp : map.map_points) {
+// Parent chains: 0 unvisited, 1 on the current chain, 2 reaches the root.
+void MapValidator::CheckParentChains() const {
+  std::vector<uint8_t> state(map_.keyframes.size(), 0);
+  std::vector<size_t> chain;
+  for (size_t start = 0; start < map_.keyframes.size(); ++start) {
+    chain.clear();
+    size_t i = start;
+    while (state[i] == 0) {
+      state[i] = 1;
+      chain.push_back(i);
+      const uint64_t parent = map_.keyframes[i].parent;
+      if (parent == kNoId) break;
+      i = static_cast<size_t>(kf_index_.Find(parent));  // Exists: checked above.
+      if (state[i] == 1) {
+        Fail("spanning tree has a cycle through " + KfText(map_.keyframes[i].id) +
+             " (its parent chain never reaches the root " + KfText(root_) + ")");
+      }
+    }
+    for (size_t j : chain) state[j] = 2;
+  }
+}
+
+// Finite values; observations of keyframes in the map whose keypoints name
+// the point back; the reference keyframe among the observers.
+void MapValidator::CheckMapPoints() {
+  for (const MapPointRecord& mp : map_.map_points) {
     for (int k = 0; k < 3; ++k) {
       if (!Finite(mp.position[k]) || !Finite(mp.normal[k])) {
-        fail(MpText(mp.id) + ": position or normal is not finite");
+        Fail(MpText(mp.id) + ": position or normal is not finite");
       }
     }
     if (!Finite(mp.min_distance) || !Finite(mp.max_distance)) {
-      fail(MpText(mp.id) + ": min/max distance is not finite");
+      Fail(MpText(mp.id) + ": min/max distance is not finite");
     }
     bool references = false;
     for (size_t i = 0; i < mp.observations.size(); ++i) {
       const auto& [kf_id, index] = mp.observations[i];
-      const int64_t o = kf_index.Find(kf_id);
-      if (o < 0) fail(MpText(mp.id) + " lists " + KfText(kf_id) + ", which is not in the map");
-      const KeyFrameRecord& kf = map.keyframes[o];
+      const int64_t o = kf_index_.Find(kf_id);
+      if (o < 0) Fail(MpText(mp.id) + " lists " + KfText(kf_id) + ", which is not in the map");
+      const KeyFrameRecord& kf = map_.keyframes[o];
       if (index >= kf.keypoints.size()) {
-        fail(MpText(mp.id) + " lists " + KfText(kf_id) + " keypoint " + std::to_string(index) +
+        Fail(MpText(mp.id) + " lists " + KfText(kf_id) + " keypoint " + std::to_string(index) +
              " but " + KfText(kf_id) + " has " + std::to_string(kf.keypoints.size()) +
              " keypoints");
       }
       if (kf.map_point_ids[index] != mp.id) {
-        fail(MpText(mp.id) + " lists " + KfText(kf_id) + " keypoint " + std::to_string(index) +
+        Fail(MpText(mp.id) + " lists " + KfText(kf_id) + " keypoint " + std::to_string(index) +
              " but " + KfText(kf_id) + " keypoint " + std::to_string(index) + " has map point " +
              IdText(kf.map_point_ids[index]));
       }
       references |= kf_id == mp.reference_keyframe;
     }
     if (!references) {
-      fail(MpText(mp.id) + ": reference " + KfText(mp.reference_keyframe) + " does not observe it");
+      Fail(MpText(mp.id) + ": reference " + KfText(mp.reference_keyframe) + " does not observe it");
     }
-    observations += mp.observations.size();
+    observations_ += mp.observations.size();
   }
-  // Every observation (point, keyframe, keypoint) names a distinct keypoint
-  // that names the point back (checked above): when there are as many
-  // keypoints with a map point as observations, every such keypoint is listed
-  // by its point. This replaces a search of the point's observations per
-  // keypoint (random access over all points: 20+ ms on a 150-keyframe map);
-  // the search runs only to name the keypoint when the counts differ.
-  if (referenced != observations) {
-    for (const KeyFrameRecord& kf : map.keyframes) {
+}
+
+// Every observation (point, keyframe, keypoint) names a distinct keypoint
+// that names the point back (checked above): when there are as many
+// keypoints with a map point as observations, every such keypoint is listed
+// by its point. This replaces a search of the point's observations per
+// keypoint (random access over all points: 20+ ms on a 150-keyframe map);
+// the search runs only to name the keypoint when the counts differ.
+void MapValidator::CheckEveryKeypointListed() const {
+  if (referenced_ != observations_) {
+    for (const KeyFrameRecord& kf : map_.keyframes) {
       for (uint32_t i = 0; i < kf.map_point_ids.size(); ++i) {
         const uint64_t mp_id = kf.map_point_ids[i];
         if (mp_id == kNoId) continue;
-        const auto& obs = map.map_points[mp_index.Find(mp_id)].observations;
+        const auto& obs = map_.map_points[mp_index_.Find(mp_id)].observations;
         const auto it = std::lower_bound(
             obs.begin(), obs.end(), kf.id,
             [](const std::pair<uint64_t, uint32_t>& o, uint64_t id) { return o.first < id; });
         if (it == obs.end() || it->first != kf.id || it->second != i) {
-          fail(KfText(kf.id) + " keypoint " + std::to_string(i) + " has " + MpText(mp_id) +
+          Fail(KfText(kf.id) + " keypoint " + std::to_string(i) + " has " + MpText(mp_id) +
                " but " + MpText(mp_id) + " does not list keyframe " + std::to_string(kf.id) +
                " keypoint " + std::to_string(i) +
                (it != obs.end() && it->first == kf.id
@@ -1027,9 +1086,15 @@ void ValidateMapData(const MapData& map, const std::string& source) {
         }
       }
     }
-    fail(std::to_string(referenced) + " keypoints have a map point but the map points list " +
-         std::to_string(observations) + " observations");
+    Fail(std::to_string(referenced_) + " keypoints have a map point but the map points list " +
+         std::to_string(observations_) + " observations");
   }
+}
+
+}  // namespace
+
+void ValidateMapData(const MapData& map, const std::string& source) {
+  MapValidator(map, source).Run();
 }
 
 }  // namespace rrslam

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
@@ -89,6 +90,200 @@ double ReadBinaryValue(const char* p, const std::string& type) {
   return get(double{});
 }
 
+// Reads a PLY file's bytes into a cloud; every failure is a DataError naming
+// `source`. The steps run in order: header, its checks, then the body.
+class PlyParser {
+ public:
+  PlyParser(const std::string& bytes, const std::string& source) : bytes_(bytes), source_(source) {}
+
+  PlyCloud Parse() {
+    ReadHeader();
+    CheckHeader();
+    values_.resize(properties_.size());
+    if (format_ == "ascii") {
+      ReadAsciiBody();
+    } else {
+      ReadBinaryBody();
+    }
+    return std::move(cloud_);
+  }
+
+ private:
+  DataError Fail(const std::string& why) const {
+    return DataError(source_ + ": not a readable PLY file: " + why);
+  }
+
+  // Header: lines up to "end_header".
+  void ReadHeader() {
+    const size_t end = bytes_.find("end_header");
+    if (bytes_.rfind("ply", 0) != 0 || end == std::string::npos) throw Fail("no PLY header");
+    body_ = bytes_.find('\n', end);
+    if (body_ == std::string::npos) throw Fail("header not terminated");
+    std::istringstream header(bytes_.substr(0, end));
+    std::string line;
+    while (std::getline(header, line)) {
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      std::istringstream words(line);
+      std::string keyword;
+      words >> keyword;
+      if (keyword == "format") {
+        words >> format_;
+      } else if (keyword == "comment") {
+        cloud_.comments.push_back(line.size() > 8 ? line.substr(8) : "");
+      } else if (keyword == "element") {
+        ReadElement(&words, line);
+      } else if (keyword == "property") {
+        ReadProperty(&words, line);
+      }
+    }
+  }
+
+  // An "element" line (after its keyword): vertex and face counts.
+  void ReadElement(std::istringstream* words, const std::string& line) {
+    size_t count = 0;
+    *words >> element_ >> count;
+    if (!*words) throw Fail("bad element line '" + line + "'");
+    if (element_ == "vertex") vertices_ = count;
+    if (element_ == "face") faces_ = count;
+    if (element_ != "vertex" && element_ != "face" && count != 0) {
+      throw Fail("unsupported element '" + element_ + "'");
+    }
+  }
+
+  // A "property" line (after its keyword) of the current element.
+  void ReadProperty(std::istringstream* words, const std::string& line) {
+    std::string type;
+    *words >> type;
+    if (element_ == "vertex") {
+      Property property;
+      property.type = CanonicalType(type);
+      *words >> property.name;
+      property.size = TypeSize(property.type);
+      if (property.size == 0) throw Fail("unsupported vertex property '" + line + "'");
+      properties_.push_back(property);
+    } else if (element_ == "face") {
+      std::string count_type, index_type, name;
+      *words >> count_type >> index_type >> name;
+      if (type != "list" || CanonicalType(count_type) != "uchar" ||
+          TypeSize(CanonicalType(index_type)) != 4) {
+        throw Fail("unsupported face property '" + line + "'");
+      }
+      face_list_ = true;
+    }
+  }
+
+  // Refuses what the body cannot be read with; finds the vertex properties.
+  void CheckHeader() {
+    if (format_ != "ascii" && format_ != "binary_little_endian") {
+      throw Fail("unsupported format '" + format_ + "'");
+    }
+    if (faces_ > 0 && !face_list_) throw Fail("faces without vertex_indices");
+    x_ = IndexOf("x");
+    y_ = IndexOf("y");
+    z_ = IndexOf("z");
+    if (x_ < 0 || y_ < 0 || z_ < 0) throw Fail("vertices without x, y, z");
+    nx_ = IndexOf("nx");
+    ny_ = IndexOf("ny");
+    nz_ = IndexOf("nz");
+    red_ = IndexOf("red");
+    green_ = IndexOf("green");
+    blue_ = IndexOf("blue");
+    observations_ = IndexOf("observations");
+    has_normals_ = nx_ >= 0 && ny_ >= 0 && nz_ >= 0;
+    has_colors_ = red_ >= 0 && green_ >= 0 && blue_ >= 0;
+  }
+
+  // The index of the vertex property `name`; -1 when there is none.
+  int IndexOf(const std::string& name) const {
+    for (size_t i = 0; i < properties_.size(); ++i) {
+      if (properties_[i].name == name) return static_cast<int>(i);
+    }
+    return -1;
+  }
+
+  void ReadAsciiBody() {
+    std::istringstream in(bytes_.substr(body_ + 1));
+    for (size_t i = 0; i < vertices_; ++i) {
+      for (double& v : values_) {
+        if (!(in >> v)) throw Fail(fmt::format("vertex {} of {} is short", i, vertices_));
+      }
+      StoreVertex();
+    }
+    for (size_t i = 0; i < faces_; ++i) {
+      int count = 0;
+      std::array<int32_t, 3> t{};
+      if (!(in >> count >> t[0] >> t[1] >> t[2])) throw Fail(fmt::format("face {} is short", i));
+      StoreTriangle(count, t);
+    }
+  }
+
+  void ReadBinaryBody() {
+    size_t stride = 0;
+    for (const Property& p : properties_) stride += p.size;
+    size_t offset = body_ + 1;
+    if ((bytes_.size() - offset) / stride < vertices_) {
+      throw Fail(fmt::format("{} vertices announced, fewer stored", vertices_));
+    }
+    for (size_t i = 0; i < vertices_; ++i) {
+      for (size_t k = 0; k < properties_.size(); ++k) {
+        values_[k] = ReadBinaryValue(bytes_.data() + offset, properties_[k].type);
+        offset += properties_[k].size;
+      }
+      StoreVertex();
+    }
+    for (size_t i = 0; i < faces_; ++i) {
+      if (bytes_.size() - offset < 13) throw Fail(fmt::format("face {} is short", i));
+      const int count = static_cast<uint8_t>(bytes_[offset]);
+      std::array<int32_t, 3> t{};
+      std::memcpy(t.data(), bytes_.data() + offset + 1, 12);
+      offset += 13;
+      StoreTriangle(count, t);
+    }
+  }
+
+  // Adds the vertex whose property values are in values_.
+  void StoreVertex() {
+    const std::vector<double>& values = values_;
+    cloud_.positions.emplace_back(values[x_], values[y_], values[z_]);
+    if (has_normals_) cloud_.normals.emplace_back(values[nx_], values[ny_], values[nz_]);
+    if (has_colors_) {
+      cloud_.colors.push_back({static_cast<uint8_t>(values[red_]),
+                               static_cast<uint8_t>(values[green_]),
+                               static_cast<uint8_t>(values[blue_])});
+    }
+    if (observations_ >= 0) {
+      cloud_.observations.push_back(static_cast<int32_t>(values[observations_]));
+    }
+  }
+
+  // Adds a face after checking it is a triangle of announced vertices.
+  void StoreTriangle(int count, const std::array<int32_t, 3>& t) {
+    if (count != 3) throw Fail(fmt::format("a face with {} vertices (triangles only)", count));
+    for (int32_t index : t) {
+      if (index < 0 || static_cast<size_t>(index) >= vertices_) {
+        throw Fail(fmt::format("face index {} out of range", index));
+      }
+    }
+    cloud_.triangles.push_back(t);
+  }
+
+  const std::string& bytes_;
+  const std::string& source_;
+  PlyCloud cloud_;
+  // Header.
+  size_t body_ = 0;      // Offset of the '\n' that ends the header.
+  std::string format_;   // "ascii" or "binary_little_endian" once checked.
+  std::string element_;  // The element whose properties follow.
+  size_t vertices_ = 0, faces_ = 0;
+  std::vector<Property> properties_;  // Of the vertex element, in order.
+  bool face_list_ = false;            // The face element has vertex_indices.
+  // Indices of the vertex properties in properties_; -1: absent.
+  int x_ = -1, y_ = -1, z_ = -1, nx_ = -1, ny_ = -1, nz_ = -1;
+  int red_ = -1, green_ = -1, blue_ = -1, observations_ = -1;
+  bool has_normals_ = false, has_colors_ = false;
+  std::vector<double> values_;  // One vertex's property values.
+};
+
 }  // namespace
 
 std::string EncodePly(const PlyCloud& cloud, PlyFormat format) {
@@ -157,136 +352,7 @@ PlyCloud ReadPly(const std::filesystem::path& path) {
 }
 
 PlyCloud ParsePly(const std::string& bytes, const std::string& source) {
-  const auto fail = [&source](const std::string& why) -> DataError {
-    return DataError(source + ": not a readable PLY file: " + why);
-  };
-  // Header: lines up to "end_header".
-  const size_t end = bytes.find("end_header");
-  if (bytes.rfind("ply", 0) != 0 || end == std::string::npos) throw fail("no PLY header");
-  const size_t body = bytes.find('\n', end);
-  if (body == std::string::npos) throw fail("header not terminated");
-  std::istringstream header(bytes.substr(0, end));
-  std::string line, format;
-  size_t vertices = 0, faces = 0;
-  std::vector<Property> properties;
-  std::string element;
-  bool face_list = false;
-  PlyCloud cloud;
-  while (std::getline(header, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    std::istringstream words(line);
-    std::string keyword;
-    words >> keyword;
-    if (keyword == "format") {
-      words >> format;
-    } else if (keyword == "comment") {
-      cloud.comments.push_back(line.size() > 8 ? line.substr(8) : "");
-    } else if (keyword == "element") {
-      size_t count = 0;
-      words >> element >> count;
-      if (!words) throw fail("bad element line '" + line + "'");
-      if (element == "vertex") vertices = count;
-      if (element == "face") faces = count;
-      if (element != "vertex" && element != "face" && count != 0) {
-        throw fail("unsupported element '" + element + "'");
-      }
-    } else if (keyword == "property") {
-      std::string type;
-      words >> type;
-      if (element == "vertex") {
-        Property property;
-        property.type = CanonicalType(type);
-        words >> property.name;
-        property.size = TypeSize(property.type);
-        if (property.size == 0) throw fail("unsupported vertex property '" + line + "'");
-        properties.push_back(property);
-      } else if (element == "face") {
-        std::string count_type, index_type, name;
-        words >> count_type >> index_type >> name;
-        if (type != "list" || CanonicalType(count_type) != "uchar" ||
-            TypeSize(CanonicalType(index_type)) != 4) {
-          throw fail("unsupported face property '" + line + "'");
-        }
-        face_list = true;
-      }
-    }
-  }
-  if (format != "ascii" && format != "binary_little_endian") {
-    throw fail("unsupported format '" + format + "'");
-  }
-  if (faces > 0 && !face_list) throw fail("faces without vertex_indices");
-  const auto index_of = [&properties](const std::string& name) -> int {
-    for (size_t i = 0; i < properties.size(); ++i) {
-      if (properties[i].name == name) return static_cast<int>(i);
-    }
-    return -1;
-  };
-  const int x = index_of("x"), y = index_of("y"), z = index_of("z");
-  if (x < 0 || y < 0 || z < 0) throw fail("vertices without x, y, z");
-  const int nx = index_of("nx"), ny = index_of("ny"), nz = index_of("nz");
-  const int red = index_of("red"), green = index_of("green"), blue = index_of("blue");
-  const int observations = index_of("observations");
-  const bool has_normals = nx >= 0 && ny >= 0 && nz >= 0;
-  const bool has_colors = red >= 0 && green >= 0 && blue >= 0;
-
-  std::vector<double> values(properties.size());
-  const auto store = [&](size_t) {
-    cloud.positions.emplace_back(values[x], values[y], values[z]);
-    if (has_normals) cloud.normals.emplace_back(values[nx], values[ny], values[nz]);
-    if (has_colors) {
-      cloud.colors.push_back({static_cast<uint8_t>(values[red]),
-                              static_cast<uint8_t>(values[green]),
-                              static_cast<uint8_t>(values[blue])});
-    }
-    if (observations >= 0) cloud.observations.push_back(static_cast<int32_t>(values[observations]));
-  };
-  const auto check_triangle = [&](int count, const std::array<int32_t, 3>& t) {
-    if (count != 3) throw fail(fmt::format("a face with {} vertices (triangles only)", count));
-    for (int32_t index : t) {
-      if (index < 0 || static_cast<size_t>(index) >= vertices) {
-        throw fail(fmt::format("face index {} out of range", index));
-      }
-    }
-    cloud.triangles.push_back(t);
-  };
-  if (format == "ascii") {
-    std::istringstream in(bytes.substr(body + 1));
-    for (size_t i = 0; i < vertices; ++i) {
-      for (double& v : values) {
-        if (!(in >> v)) throw fail(fmt::format("vertex {} of {} is short", i, vertices));
-      }
-      store(i);
-    }
-    for (size_t i = 0; i < faces; ++i) {
-      int count = 0;
-      std::array<int32_t, 3> t{};
-      if (!(in >> count >> t[0] >> t[1] >> t[2])) throw fail(fmt::format("face {} is short", i));
-      check_triangle(count, t);
-    }
-  } else {
-    size_t stride = 0;
-    for (const Property& p : properties) stride += p.size;
-    size_t offset = body + 1;
-    if ((bytes.size() - offset) / stride < vertices) {
-      throw fail(fmt::format("{} vertices announced, fewer stored", vertices));
-    }
-    for (size_t i = 0; i < vertices; ++i) {
-      for (size_t k = 0; k < properties.size(); ++k) {
-        values[k] = ReadBinaryValue(bytes.data() + offset, properties[k].type);
-        offset += properties[k].size;
-      }
-      store(i);
-    }
-    for (size_t i = 0; i < faces; ++i) {
-      if (bytes.size() - offset < 13) throw fail(fmt::format("face {} is short", i));
-      const int count = static_cast<uint8_t>(bytes[offset]);
-      std::array<int32_t, 3> t{};
-      std::memcpy(t.data(), bytes.data() + offset + 1, 12);
-      offset += 13;
-      check_triangle(count, t);
-    }
-  }
-  return cloud;
+  return PlyParser(bytes, source).Parse();
 }
 
 }  // namespace rrslam

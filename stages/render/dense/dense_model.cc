@@ -809,21 +809,21 @@ DenseModel BuildDenseModel(const DenseOptions& options, const DenseCamera& camer
 // ---------------------------------------------------------------------------
 // The command
 
-DenseResult RunDense(const DenseOptions& options) {
-  std::string why;
-  if (!options.Check(&why)) throw UsageError(why);
-  const fs::path image_path = options.ImagePath();
-  // Outputs' folders first: a missing one should not wait for the fusion.
-  for (const fs::path& output : {options.out, image_path}) {
+namespace {
+
+// Outputs' folders first: a missing one should not wait for the fusion.
+void CheckOutputFolders(const std::vector<fs::path>& outputs) {
+  for (const fs::path& output : outputs) {
     const fs::path parent = fs::absolute(output).parent_path();
     std::error_code ec;
     if (!fs::is_directory(parent, ec)) {
       throw CantCreateError(output.string() + ": folder " + parent.string() + " does not exist");
     }
   }
+}
 
-  const MapScene scene = LoadMapScene(options.map);
-  const std::string map_name = options.map.string();
+// Refuses a map without keyframes or with a camera the fusion cannot use.
+void CheckMapScene(const MapScene& scene, const std::string& map_name) {
   if (scene.keyframes.empty()) throw DataError(map_name + ": the map has no keyframes");
   const MapCamera& map_camera = scene.camera;
   if (!(map_camera.depth_map_factor > 0)) {
@@ -846,15 +846,23 @@ DenseResult RunDense(const DenseOptions& options) {
       throw DataError(map_name + ": camera intrinsics or distortion not finite");
     }
   }
+}
+
+RgbdSequence OpenSequence(const DenseOptions& options, const MapCamera& map_camera,
+                          const std::string& map_name) {
   SequenceOptions sequence_options;
   sequence_options.associations = options.associations;
   // Images are refused from their headers when larger than the map's camera
   // (and kMaxImageSide), before they are decoded.
   sequence_options.max_image_size = {map_camera.width, map_camera.height,
                                      "the camera of " + map_name};
-  const RgbdSequence sequence = RgbdSequence::Open(options.sequence, sequence_options);
+  return RgbdSequence::Open(options.sequence, sequence_options);
+}
 
-  // Each keyframe's frame, by rgb timestamp.
+// Each keyframe's frame, by rgb timestamp; throws when one has none.
+std::vector<size_t> MatchKeyFramesToFrames(const MapScene& scene, const RgbdSequence& sequence,
+                                           const DenseOptions& options,
+                                           const std::string& map_name) {
   std::vector<double> stamps;
   stamps.reserve(sequence.size());
   for (size_t i = 0; i < sequence.size(); ++i) stamps.push_back(sequence.frame(i).rgb_timestamp);
@@ -878,75 +886,95 @@ DenseResult RunDense(const DenseOptions& options) {
                     options.sequence.string() + " (first: " + first_missing +
                     "); was the map built from this sequence (and --associations)?");
   }
+  return frame_of;
+}
 
-  // Undistortion to ideal pixels, when the camera has lens distortion: both
-  // images through one map (TUM's depth is registered to the colour image);
-  // depth with the nearest neighbour, so no depth is blended across edges.
-  const DenseCamera camera{map_camera.fx, map_camera.fy,    map_camera.cx,
-                           map_camera.cy, map_camera.width, map_camera.height};
-  const bool distorted = map_camera.k1 != 0 || map_camera.k2 != 0 || map_camera.p1 != 0 ||
-                         map_camera.p2 != 0 || map_camera.k3 != 0;
-  cv::Mat undistort_x, undistort_y;
-  if (distorted && camera.width > 0 && camera.height > 0) {
-    const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-    const cv::Matx<double, 1, 5> D(map_camera.k1, map_camera.k2, map_camera.p1, map_camera.p2,
-                                   map_camera.k3);
-    cv::initUndistortRectifyMap(K, D, cv::noArray(), K, cv::Size(camera.width, camera.height),
-                                CV_32FC1, undistort_x, undistort_y);
+bool HasDistortion(const MapCamera& map_camera) {
+  return map_camera.k1 != 0 || map_camera.k2 != 0 || map_camera.p1 != 0 || map_camera.p2 != 0 ||
+         map_camera.k3 != 0;
+}
+
+// The keyframes' images from the sequence, checked against the map's camera.
+//
+// Undistortion to ideal pixels, when the camera has lens distortion: both
+// images through one map (TUM's depth is registered to the colour image);
+// depth with the nearest neighbour, so no depth is blended across edges.
+class KeyFrameImages {
+ public:
+  KeyFrameImages(const RgbdSequence& sequence, std::vector<size_t> frame_of,
+                 const MapCamera& map_camera, const DenseCamera& camera)
+      : sequence_(sequence),
+        frame_of_(std::move(frame_of)),
+        depth_map_factor_(map_camera.depth_map_factor),
+        camera_(camera) {
+    if (HasDistortion(map_camera) && camera.width > 0 && camera.height > 0) {
+      const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+      const cv::Matx<double, 1, 5> D(map_camera.k1, map_camera.k2, map_camera.p1, map_camera.p2,
+                                     map_camera.k3);
+      cv::initUndistortRectifyMap(K, D, cv::noArray(), K, cv::Size(camera.width, camera.height),
+                                  CV_32FC1, undistort_x_, undistort_y_);
+    }
   }
-  const DenseImageLoader load = [&](size_t index, bool with_color) {
-    const size_t frame = frame_of[index];
+
+  // The images of keyframe `index` (a DenseImageLoader).
+  DenseImages Load(size_t index, bool with_color) const {
+    const size_t frame = frame_of_[index];
     DenseImages images;
-    images.depth = sequence.LoadDepthMetres(frame, map_camera.depth_map_factor);
-    if (images.depth.cols != camera.width || images.depth.rows != camera.height) {
-      throw DataError(sequence.frame(frame).depth_path.string() + ": " +
+    images.depth = sequence_.LoadDepthMetres(frame, depth_map_factor_);
+    if (images.depth.cols != camera_.width || images.depth.rows != camera_.height) {
+      throw DataError(sequence_.frame(frame).depth_path.string() + ": " +
                       std::to_string(images.depth.cols) + "x" + std::to_string(images.depth.rows) +
-                      " depth; the map's camera is " + std::to_string(camera.width) + "x" +
-                      std::to_string(camera.height));
+                      " depth; the map's camera is " + std::to_string(camera_.width) + "x" +
+                      std::to_string(camera_.height));
     }
     if (with_color) {
-      images.color = sequence.LoadColor(frame);
-      CheckSameSize(images.color, images.depth, sequence.frame(frame).depth_path);
+      images.color = sequence_.LoadColor(frame);
+      CheckSameSize(images.color, images.depth, sequence_.frame(frame).depth_path);
     }
-    if (!undistort_x.empty()) {
+    if (!undistort_x_.empty()) {
       cv::Mat depth, color;
-      cv::remap(images.depth, depth, undistort_x, undistort_y, cv::INTER_NEAREST,
+      cv::remap(images.depth, depth, undistort_x_, undistort_y_, cv::INTER_NEAREST,
                 cv::BORDER_CONSTANT, 0);
       images.depth = depth;
       if (with_color) {
-        cv::remap(images.color, color, undistort_x, undistort_y, cv::INTER_LINEAR,
+        cv::remap(images.color, color, undistort_x_, undistort_y_, cv::INTER_LINEAR,
                   cv::BORDER_CONSTANT, 0);
         images.color = color;
       }
     }
     return images;
-  };
-  spdlog::info("dense: fusing {} keyframes of {} ({}x{}{})", scene.keyframes.size(), map_name,
-               camera.width, camera.height, distorted ? ", undistorted" : "");
-  std::vector<Rigid3d> poses;
-  poses.reserve(scene.keyframes.size());
-  for (const SceneKeyFrame& keyframe : scene.keyframes) poses.push_back(keyframe.T_world_cam);
-  DenseModel model = BuildDenseModel(options, camera, poses, load);
-  DenseResult& result = model.result;
+  }
 
-  // Outputs, each written atomically.
-  const auto start = SteadyClock::now();
-  const std::string producer = Producer("render");
-  const nlohmann::ordered_json options_json = options.ToJson();
+ private:
+  const RgbdSequence& sequence_;
+  const std::vector<size_t> frame_of_;  // Sequence frame of each keyframe.
+  const double depth_map_factor_;
+  const DenseCamera camera_;
+  cv::Mat undistort_x_, undistort_y_;  // Empty: no lens distortion.
+};
+
+// The PLY's header comments: what produced the points, from what, and how.
+std::vector<std::string> CloudComments(const std::string& producer,
+                                       const nlohmann::ordered_json& options_json,
+                                       const std::string& map_name, const DenseResult& result) {
   const Eigen::Vector3d& o = result.volume_origin;
-  model.cloud.comments = {
-      "producer " + producer,
-      "rrslam-render dense: TSDF surface points (OpenCV rgbd COLOREDTSDF) of " + map_name,
-      "frame: the map's world frame, metres",
-      "options " + DumpJson(options_json),
-      "volume voxel " + Format("%g", result.voxel) + " truncation " +
-          Format("%g", result.truncation) + " origin " + Format("%.6f", o.x()) + " " +
-          Format("%.6f", o.y()) + " " + Format("%.6f", o.z()) + " resolution " +
-          std::to_string(result.resolution.x()) + " " + std::to_string(result.resolution.y()) +
-          " " + std::to_string(result.resolution.z()),
-      "keyframes_fused " + std::to_string(result.keyframes_fused)};
-  WritePly(options.out, model.cloud,
-           options.binary ? PlyFormat::kBinaryLittleEndian : PlyFormat::kAscii);
+  return {"producer " + producer,
+          "rrslam-render dense: TSDF surface points (OpenCV rgbd COLOREDTSDF) of " + map_name,
+          "frame: the map's world frame, metres",
+          "options " + DumpJson(options_json),
+          "volume voxel " + Format("%g", result.voxel) + " truncation " +
+              Format("%g", result.truncation) + " origin " + Format("%.6f", o.x()) + " " +
+              Format("%.6f", o.y()) + " " + Format("%.6f", o.z()) + " resolution " +
+              std::to_string(result.resolution.x()) + " " + std::to_string(result.resolution.y()) +
+              " " + std::to_string(result.resolution.z()),
+          "keyframes_fused " + std::to_string(result.keyframes_fused)};
+}
+
+// The rendering's metadata: producer, description, options and viewpoint.
+ImageMetadata RenderingMetadata(const std::string& producer,
+                                const nlohmann::ordered_json& options_json,
+                                const DenseOptions& options, const std::string& map_name,
+                                const DenseResult& result) {
   const Eigen::Vector3d eye = result.T_world_view.translation;
   const Eigen::Vector3d forward = result.T_world_view.RotationMatrix().col(2);
   const nlohmann::ordered_json view_json = {
@@ -965,9 +993,27 @@ DenseResult RunDense(const DenseOptions& options) {
                          options.sequence.string() + "), raycast and shaded";
   metadata.attributes = {{"rrslam:options", DumpJson(options_json)},
                          {"rrslam:view", DumpJson(view_json)}};
-  WritePicture(image_path, model.rendering, metadata);
-  result.write_seconds = MillisecondsSince(start) / 1000.0;
+  return metadata;
+}
 
+// Outputs, each written atomically: the point cloud, then the rendering.
+void WriteOutputs(const DenseOptions& options, const fs::path& image_path,
+                  const std::string& map_name, DenseModel* model) {
+  const auto start = SteadyClock::now();
+  DenseResult& result = model->result;
+  const std::string producer = Producer("render");
+  const nlohmann::ordered_json options_json = options.ToJson();
+  model->cloud.comments = CloudComments(producer, options_json, map_name, result);
+  WritePly(options.out, model->cloud,
+           options.binary ? PlyFormat::kBinaryLittleEndian : PlyFormat::kAscii);
+  WritePicture(image_path, model->rendering,
+               RenderingMetadata(producer, options_json, options, map_name, result));
+  result.write_seconds = MillisecondsSince(start) / 1000.0;
+}
+
+// The summary on stdout: the model's size, the time of each step, the outputs.
+void PrintSummary(const DenseResult& result, const DenseOptions& options,
+                  const fs::path& image_path) {
   std::cout << "dense: " << result.keyframes_fused << " keyframes fused, " << result.points
             << " points; volume " << result.resolution.x() << " x " << result.resolution.y()
             << " x " << result.resolution.z() << " voxels of " << result.voxel << " m ("
@@ -978,7 +1024,39 @@ DenseResult RunDense(const DenseOptions& options) {
             << Format("%.1f", result.color_seconds) << " s, write "
             << Format("%.1f", result.write_seconds) << " s\n"
             << "wrote " << options.out.string() << " and " << image_path.string() << "\n";
-  return result;
+}
+
+}  // namespace
+
+DenseResult RunDense(const DenseOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw UsageError(why);
+  const fs::path image_path = options.ImagePath();
+  CheckOutputFolders({options.out, image_path});
+
+  const MapScene scene = LoadMapScene(options.map);
+  const std::string map_name = options.map.string();
+  CheckMapScene(scene, map_name);
+  const MapCamera& map_camera = scene.camera;
+  const RgbdSequence sequence = OpenSequence(options, map_camera, map_name);
+  std::vector<size_t> frame_of = MatchKeyFramesToFrames(scene, sequence, options, map_name);
+
+  const DenseCamera camera{map_camera.fx, map_camera.fy,    map_camera.cx,
+                           map_camera.cy, map_camera.width, map_camera.height};
+  const KeyFrameImages images(sequence, std::move(frame_of), map_camera, camera);
+  const DenseImageLoader load = [&images](size_t index, bool with_color) {
+    return images.Load(index, with_color);
+  };
+  spdlog::info("dense: fusing {} keyframes of {} ({}x{}{})", scene.keyframes.size(), map_name,
+               camera.width, camera.height, HasDistortion(map_camera) ? ", undistorted" : "");
+  std::vector<Rigid3d> poses;
+  poses.reserve(scene.keyframes.size());
+  for (const SceneKeyFrame& keyframe : scene.keyframes) poses.push_back(keyframe.T_world_cam);
+  DenseModel model = BuildDenseModel(options, camera, poses, load);
+
+  WriteOutputs(options, image_path, map_name, &model);
+  PrintSummary(model.result, options, image_path);
+  return model.result;
 }
 
 }  // namespace rrslam
