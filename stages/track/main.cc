@@ -63,33 +63,34 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
   app.add_flag("--localization-only", o->localization_only,
                "With --load-map: localize in the map without changing it (ORB-SLAM2's "
                "localization mode: visual odometry where the map is not seen)");
-  app.add_option("--changed-point-views", o->changed_point_views,
+  app.add_option("--changed-point-views", o->local_mapping.changed_point_min_views,
                  "Restore mapping: cull a loaded point predicted visible in this many frames "
                  "but found in fewer than --changed-point-ratio of them (0 = never)")
       ->capture_default_str();
-  app.add_option("--changed-point-ratio", o->changed_point_ratio,
+  app.add_option("--changed-point-ratio", o->local_mapping.changed_point_min_found_ratio,
                  "Restore mapping: see --changed-point-views; in [0, 1]")
       ->capture_default_str();
-  app.add_option("--changed-point-absent", o->changed_point_absent,
+  app.add_option("--changed-point-absent", o->local_mapping.changed_point_min_absent,
                  "Restore mapping: ... and seen through (a keypoint at its pixel measured a "
                  "depth clearly beyond it) in at least this many frames")
       ->capture_default_str();
   // Departures from ORB-SLAM2; docs/track.md gives the measurements.
-  app.add_option("--close-tracked", o->close_tracked,
+  app.add_option("--close-tracked", o->tracker.close_tracked,
                  "Keyframe when fewer close points are tracked (ORB-SLAM2: 100; the default "
                  "follows the rule for defaults, docs/track.md)")
       ->capture_default_str();
   app.add_option("--restore-close-tracked", o->restore_close_tracked,
                  "The same when mapping on a --load-map map (restore mapping; ORB-SLAM2: 100)")
       ->capture_default_str();
-  app.add_flag("--ba-depth-fallback,!--no-ba-depth-fallback", o->ba_depth_fallback,
+  app.add_flag("--ba-depth-fallback,!--no-ba-depth-fallback",
+               o->local_mapping.bundle_adjustment.depth_fallback,
                "Local BA keeps an observation whose depth disagrees as (u, v) (default: on); "
                "--no-ba-depth-fallback removes it, as ORB-SLAM2")
       ->capture_default_str();
   app.add_flag("--small-vocab-groups", o->small_vocab_groups,
                "Vocabularies of < 6 levels group BoW candidates at depth 2 (ORB-SLAM2: 4 "
                "levels above the words)");
-  app.add_flag("--expand-all-local-keyframes", o->expand_all_local_keyframes,
+  app.add_flag("--expand-all-local-keyframes", o->tracker.expand_all_local_keyframes,
                "Local map: neighbours of every observing keyframe (ORB-SLAM2 stops at the "
                "first parent)");
 }

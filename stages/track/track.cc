@@ -282,9 +282,8 @@ bool TrackOptions::Check(std::string* why) const {
   if (max_frames < 0 || max_frames == 1) {
     return fail("--max-frames = " + std::to_string(max_frames) + "; must be 0 (all) or >= 2");
   }
-  if (close_tracked < 0) {
-    return fail("--close-tracked = " + std::to_string(close_tracked) + "; must be >= 0");
-  }
+  std::string module_why;
+  if (!tracker.Check(&module_why) || !local_mapping.Check(&module_why)) return fail(module_why);
   if (restore_close_tracked < 0) {
     return fail("--restore-close-tracked = " + std::to_string(restore_close_tracked) +
                 "; must be >= 0");
@@ -303,18 +302,6 @@ bool TrackOptions::Check(std::string* why) const {
   if (localization_only && load_map.empty()) {
     return fail("--localization-only needs a map to localize in: give --load-map");
   }
-  if (changed_point_views < 0) {
-    return fail("--changed-point-views = " + std::to_string(changed_point_views) +
-                "; must be >= 0");
-  }
-  if (changed_point_absent < 0) {
-    return fail("--changed-point-absent = " + std::to_string(changed_point_absent) +
-                "; must be >= 0");
-  }
-  if (!(changed_point_ratio >= 0 && changed_point_ratio <= 1)) {
-    return fail("--changed-point-ratio = " + std::to_string(changed_point_ratio) +
-                "; must be in [0, 1]");
-  }
   return true;
 }
 
@@ -330,20 +317,20 @@ nlohmann::json TrackOptions::ToJson() const {
           {"pace", pace},
           {"max_pace_gap", max_pace_gap},
           {"extraction_threads", extraction_threads},
-          {"close_tracked", close_tracked},
+          {"close_tracked", tracker.close_tracked},
           {"restore_close_tracked", restore_close_tracked},
-          {"ba_depth_fallback", ba_depth_fallback},
+          {"ba_depth_fallback", local_mapping.bundle_adjustment.depth_fallback},
           {"small_vocab_groups", small_vocab_groups},
-          {"expand_all_local_keyframes", expand_all_local_keyframes},
+          {"expand_all_local_keyframes", tracker.expand_all_local_keyframes},
           {"loop_closing", loop_closing},
           {"refine_map", refine_map},
           {"save_map", save_map.string()},
           {"load_map", load_map.string()},
           {"first_frame", first_frame},
           {"localization_only", localization_only},
-          {"changed_point_views", changed_point_views},
-          {"changed_point_ratio", changed_point_ratio},
-          {"changed_point_absent", changed_point_absent}};
+          {"changed_point_views", local_mapping.changed_point_min_views},
+          {"changed_point_ratio", local_mapping.changed_point_min_found_ratio},
+          {"changed_point_absent", local_mapping.changed_point_min_absent}};
 }
 
 namespace {
@@ -460,17 +447,13 @@ class TrackSession {
   void BuildModules() {
     database_ = std::make_unique<KeyFrameDatabase>(vocabulary_);
     bow_levels_up_ = FeatureVectorLevelsUp(vocabulary_.levels(), options_.small_vocab_groups);
+    // The options the user gave, and those that follow from the inputs.
+    tracker_options_ = options_.tracker;
     tracker_options_.max_keyframe_gap = std::max(1, static_cast<int>(std::lround(settings_.fps)));
-    tracker_options_.close_tracked =
-        options_.load_map.empty() ? options_.close_tracked : options_.restore_close_tracked;
-    tracker_options_.expand_all_local_keyframes = options_.expand_all_local_keyframes;
+    if (!options_.load_map.empty()) tracker_options_.close_tracked = options_.restore_close_tracked;
     tracker_options_.bow_levels_up = bow_levels_up_;
-    LocalMapperOptions mapper_options;
+    LocalMapperOptions mapper_options = options_.local_mapping;
     mapper_options.bow_levels_up = bow_levels_up_;
-    mapper_options.bundle_adjustment.depth_fallback = options_.ba_depth_fallback;
-    mapper_options.changed_point_min_views = options_.changed_point_views;
-    mapper_options.changed_point_min_found_ratio = options_.changed_point_ratio;
-    mapper_options.changed_point_min_absent = options_.changed_point_absent;
     tracker_options_.localization_only = options_.localization_only;
     tracker_options_.restore_mapping = !options_.load_map.empty() && !options_.localization_only;
     mapper_ = std::make_unique<LocalMapper>(*sensor_, vocabulary_, &map_, database_.get(),
@@ -639,7 +622,7 @@ class TrackSession {
   void Refine() {
     std::lock_guard<std::mutex> lock(map_.mutex());
     MapRefinementOptions refine_options;
-    refine_options.depth_fallback = options_.ba_depth_fallback;
+    refine_options.depth_fallback = options_.local_mapping.bundle_adjustment.depth_fallback;
     refinement_ = RefineMap(*sensor_, &map_, refine_options);
     spdlog::info(
         "track: map refined in {:.0f} ms: {} keyframes, {} points, {} outlier "

@@ -22,6 +22,9 @@
 #include <string>
 #include <vector>
 
+#include "stages/track/module/local_mapper.h"
+#include "stages/track/module/tracker.h"
+
 namespace rrslam {
 
 struct TrackOptions {
@@ -59,29 +62,32 @@ struct TrackOptions {
   // Does not change the result.
   int extraction_threads = 1;
 
-  // Departures from ORB-SLAM2. A departure is the default when the rule for
-  // defaults says so (docs/track.md, "Departures from ORB-SLAM2", has the
-  // rule and the measurements behind each default); ORB-SLAM2's behaviour
-  // stays available through each option.
-  // A keyframe is needed when fewer than this many close points are tracked
-  // (and more than 70 could be created). ORB-SLAM2: 100. Default 300: denser
-  // keyframes (lower score under the rule).
-  int close_tracked = 300;
-  // The same threshold when mapping on a loaded map (restore mapping, with
+  // The modules' options, nested as COLMAP nests its options: each field has
+  // its one default, check and meaning in the module's header. The tool
+  // binds these (CLI flag / run.json name):
+  //   tracker.close_tracked                        --close-tracked / close_tracked
+  //   tracker.expand_all_local_keyframes           --expand-all-local-keyframes
+  //   local_mapping.bundle_adjustment.depth_fallback  --[no-]ba-depth-fallback /
+  //                                                   ba_depth_fallback (also
+  //                                                   the final refinement's)
+  //   local_mapping.changed_point_min_views        --changed-point-views
+  //   local_mapping.changed_point_min_found_ratio  --changed-point-ratio
+  //   local_mapping.changed_point_min_absent       --changed-point-absent
+  // The session sets the fields that follow from the inputs (max_keyframe_gap
+  // from Camera.fps, bow_levels_up from the vocabulary, localization_only,
+  // restore_mapping, close_tracked with --load-map): their values here are
+  // not used. Departures from ORB-SLAM2 are the default when the rule for
+  // defaults says so (docs/track.md, "Departures from ORB-SLAM2").
+  TrackerOptions tracker;
+  LocalMapperOptions local_mapping;
+  // tracker.close_tracked when mapping on a loaded map (restore mapping, with
   // --load-map). ORB-SLAM2's 100: on the synthetic changed room, 300 there
   // culled 9 of the 18 loaded keyframes, added 16 and doubled the loaded
   // points removed (docs/track.md, "Departures from ORB-SLAM2").
   int restore_close_tracked = 100;
-  // Local BA (and the final refinement) keep an observation whose depth
-  // disagrees but whose (u, v) agrees as a (u, v) observation. ORB-SLAM2
-  // (false) removes it. Default true (lower score under the rule).
-  bool ba_depth_fallback = true;
   // Vocabularies of fewer than 6 levels group BoW search candidates at depth
   // min(2, L - 1) (ORB-SLAM2: 4 levels above the words).
   bool small_vocab_groups = false;
-  // Local keyframes: neighbours of every keyframe observing the frame's
-  // points (ORB-SLAM2 stops at the first parent it adds).
-  bool expand_all_local_keyframes = false;
 
   // Loop closing (ORB-SLAM2's LoopClosing, with global bundle adjustment
   // after each loop); off: tracking and local mapping only.
@@ -109,15 +115,6 @@ struct TrackOptions {
   // visual odometry until relocalization finds the map again. Without it, a
   // loaded map is mapped on (restore mapping).
   bool localization_only = false;
-  // Restore mapping: a loaded map point predicted visible in at least
-  // `changed_point_views` frames of this run but found in fewer than
-  // `changed_point_ratio` of them is culled (the scene changed there) ...
-  // 0 views = never.
-  int changed_point_views = 20;
-  double changed_point_ratio = 0.25;
-  // ... and seen through (a keypoint at its pixel measured a depth clearly
-  // beyond it) in at least this many of them.
-  int changed_point_absent = 3;
 
   // Names the first violated constraint ("--mode = x; must be batch or realtime").
   bool Check(std::string* why) const;

@@ -10,12 +10,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <regex>
+#include <sstream>
 
 #include "common/atomic_file.h"
 #include "common/settings.h"
 #include "common/testing.h"
 #include "stages/extract/features_file.h"
 #include "stages/track/test_scene.h"
+#include "stages/track/track.h"
 
 namespace rrslam {
 namespace {
@@ -340,6 +343,41 @@ TEST_F(TrackToolTest, PaceCapsLongGapsBetweenTimestamps) {
   }
   const auto help = RunTool("track", "--help");
   EXPECT_NE(help.output.find("--max-pace-gap FLOAT=1"), std::string::npos) << help.output;
+}
+
+// Issue 33: each option has one default, the options struct's; --help shows
+// that one (a default given to the binding instead would differ here).
+TEST(TrackHelp, DefaultsAreTheOptionsStructs) {
+  const auto r = RunTool("track", "--help");
+  ASSERT_EQ(r.exit_code, 0);
+  const nlohmann::json defaults = TrackOptions{}.ToJson();
+  const std::regex option(R"(^\s+--([a-z-]+) [A-Z]+=(\S+))");
+  std::istringstream lines(r.output);
+  std::string line;
+  int compared = 0;
+  while (std::getline(lines, line)) {
+    std::smatch m;
+    if (!std::regex_search(line, m, option)) continue;
+    std::string key = m[1].str();
+    std::replace(key.begin(), key.end(), '-', '_');
+    if (!defaults.contains(key)) continue;
+    const nlohmann::json& value = defaults[key];
+    if (value.is_number()) {
+      EXPECT_DOUBLE_EQ(std::stod(m[2].str()), value.get<double>()) << line;
+    } else {
+      EXPECT_EQ(m[2].str(), value.get<std::string>()) << line;
+    }
+    ++compared;
+  }
+  EXPECT_GE(compared, 10) << r.output;
+  // Switches state their default in words.
+  EXPECT_TRUE(defaults["ba_depth_fallback"].get<bool>());
+  EXPECT_NE(r.output.find("disagrees as (u, v) (default: on)"), std::string::npos);
+  EXPECT_FALSE(defaults["refine_map"].get<bool>());
+  EXPECT_NE(r.output.find("written (default: off;"), std::string::npos);
+  // The nested modules' defaults are the tool's.
+  EXPECT_EQ(defaults["close_tracked"], TrackerOptions{}.close_tracked);
+  EXPECT_EQ(defaults["changed_point_views"], LocalMapperOptions{}.changed_point_min_views);
 }
 
 }  // namespace

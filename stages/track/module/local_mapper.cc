@@ -11,6 +11,26 @@
 
 namespace rrslam {
 
+bool LocalMapperOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (changed_point_min_views < 0) {
+    return fail("changed_point_min_views = " + std::to_string(changed_point_min_views) +
+                "; must be >= 0");
+  }
+  if (changed_point_min_absent < 0) {
+    return fail("changed_point_min_absent = " + std::to_string(changed_point_min_absent) +
+                "; must be >= 0");
+  }
+  if (!(changed_point_min_found_ratio >= 0 && changed_point_min_found_ratio <= 1)) {
+    return fail("changed_point_min_found_ratio = " + std::to_string(changed_point_min_found_ratio) +
+                "; must be in [0, 1]");
+  }
+  return true;
+}
+
 RecentPointDecision ClassifyRecentPoint(const MapPoint& point, KeyFrameId current_keyframe_id) {
   if (point.bad()) return RecentPointDecision::kCull;
   if (point.FoundRatio() < 0.25) return RecentPointDecision::kCull;

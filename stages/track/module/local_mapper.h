@@ -25,6 +25,7 @@
 #include <deque>
 #include <functional>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -50,10 +51,14 @@ struct LocalMapperOptions {
   // (MapPoint::absent) is culled at the next keyframe: the scene changed
   // there. (Visibility alone cannot tell a removed point from an occluded
   // one: both are predicted visible and not found.) 0 views: loaded points
-  // are culled only as any other point.
-  int changed_point_min_views = 0;
+  // are culled only as any other point. Views and absent >= 0, the ratio in
+  // [0, 1]. Only loaded points are judged (LocalMapper::WatchLoadedPoints).
+  int changed_point_min_views = 20;
   double changed_point_min_found_ratio = 0.25;
   int changed_point_min_absent = 3;
+
+  // Names the first violated constraint ("changed_point_min_views = -1; must be >= 0").
+  bool Check(std::string* why) const;
 };
 
 // Restore mapping: true when a loaded point is to be culled as changed (see

@@ -12,6 +12,15 @@
 
 namespace rrslam {
 
+bool TrackerOptions::Check(std::string* why) const {
+  if (close_tracked < 0) {
+    if (why != nullptr)
+      *why = "close_tracked = " + std::to_string(close_tracked) + "; must be >= 0";
+    return false;
+  }
+  return true;
+}
+
 Tracker::Tracker(const SensorModel& sensor, const Vocabulary& vocabulary, Map* map,
                  LocalMapper* mapper, const KeyFrameDatabase& database,
                  const TrackerOptions& options)

@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "stages/track/data/frame.h"
@@ -32,9 +33,10 @@
 
 namespace rrslam {
 
-// Defaults are ORB-SLAM2's RGB-D values. Fields marked "departure" select a
-// behaviour of rrslam's own; docs/track.md ("Departures from ORB-SLAM2") has
-// the measurements that decide their defaults.
+// Defaults are ORB-SLAM2's RGB-D values, but for departures the rule for
+// defaults chose (marked "departure"); docs/track.md ("Departures from
+// ORB-SLAM2") has the measurements that decide them. rrslam-track binds the
+// fields TrackOptions lists.
 struct TrackerOptions {
   // Initialization: the first frame with more than this many keypoints
   // (ORB-SLAM2: N > 500); its keypoints with depth become map points. A guard
@@ -61,9 +63,10 @@ struct TrackerOptions {
   // (the camera frame rate), ...
   int max_keyframe_gap = 30;
   // ... and a keyframe is needed when fewer than `close_tracked` close points
-  // are tracked while more than `close_untracked` could be created.
-  // ORB-SLAM2: 100. Departure: 300 (denser keyframes).
-  int close_tracked = 100;
+  // are tracked while more than `close_untracked` could be created (>= 0).
+  // ORB-SLAM2: 100. Departure, the default: 300 (denser keyframes; lower
+  // score under the rule for defaults).
+  int close_tracked = 300;
   int close_untracked = 70;
   double reference_ratio = 0.75;  // Inliers / reference keyframe's tracked points.
   int new_keyframe_points = 100;  // Close-depth points a new keyframe gets at least.
@@ -100,6 +103,9 @@ struct TrackerOptions {
   int vo_min_map_matches = 10;
   // Points matched by the motion model in visual-odometry tracking (ORB-SLAM2: > 20).
   int vo_min_matches = 20;
+
+  // Names the first violated constraint ("close_tracked = -1; must be >= 0").
+  bool Check(std::string* why) const;
 };
 
 // Pose of a frame as recorded for the trajectory: relative to its reference

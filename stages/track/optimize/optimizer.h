@@ -115,8 +115,9 @@ struct LocalBundleAdjustmentOptions {
   // Departure from ORB-SLAM2 (option --ba-depth-fallback): an observation with
   // depth whose (u, v, u_R) error exceeds the three-dof bound but whose (u, v)
   // error is within the two-dof bound is kept as a (u, v) observation instead
-  // of being an outlier. ORB-SLAM2 (false) removes it.
-  bool depth_fallback = false;
+  // of being an outlier. ORB-SLAM2 (false) removes it. Default true (lower
+  // score under the rule for defaults, docs/track.md).
+  bool depth_fallback = true;
 };
 
 struct LocalBundleAdjustmentStats {

@@ -304,7 +304,9 @@ class WrongDepthTest : public LocalBundleAdjustmentTest {
 
 TEST_F(WrongDepthTest, OrbSlam2RemovesObservationsWithWrongDepth) {
   ASSERT_EQ(wrong_.size(), 10u);
-  LocalBundleAdjuster adjuster(sensor_);  // depth_fallback = false: ORB-SLAM2.
+  LocalBundleAdjustmentOptions options;
+  options.depth_fallback = false;  // ORB-SLAM2.
+  LocalBundleAdjuster adjuster(sensor_, options);
   adjuster.Collect(keyframes_.back(), map_);
   adjuster.Solve();
   adjuster.Apply(&map_);
@@ -312,9 +314,7 @@ TEST_F(WrongDepthTest, OrbSlam2RemovesObservationsWithWrongDepth) {
 }
 
 TEST_F(WrongDepthTest, DepthFallbackKeepsThemAsPixelObservations) {
-  LocalBundleAdjustmentOptions options;
-  options.depth_fallback = true;
-  LocalBundleAdjuster adjuster(sensor_, options);
+  LocalBundleAdjuster adjuster(sensor_);  // depth_fallback = true: the default.
   adjuster.Collect(keyframes_.back(), map_);
   adjuster.Solve();
   adjuster.Apply(&map_);
