@@ -151,5 +151,31 @@ TEST_F(TrackerSceneTest, ReferenceKeyFrameTakesOverWhenTheMotionModelFails) {
   EXPECT_EQ(tracker_->relocalizations(), 0u);  // Not lost on the way.
 }
 
+// Localization only on the map of a first pass: the first frame relocalizes,
+// no keyframe or point is added, and where the path leaves the mapped part
+// the frames are tracked as visual odometry, not lost.
+TEST_F(TrackerSceneTest, LocalizationOnlyLeavesTheMapAsItIs) {
+  MakeTracker({});
+  for (int t = 0; t < 8; ++t) ASSERT_TRUE(TrackAt(PathPose(t))) << t;
+  const size_t keyframes = map_.num_keyframes(), points = map_.num_map_points();
+  TrackerOptions o;
+  o.localization_only = true;
+  MakeTracker(o);
+  tracker_->StartOnLoadedMap();
+  ASSERT_TRUE(TrackAt(PathPose(5)));
+  EXPECT_EQ(tracker_->relocalizations(), 1u);
+  EXPECT_LT(LastError(PathPose(5)), 0.01);
+  for (int t = 6; t < 110; ++t) {
+    bool new_keyframe = true;
+    EXPECT_TRUE(TrackAt(PathPose(t), &new_keyframe)) << t;
+    EXPECT_FALSE(new_keyframe) << t;
+    EXPECT_LT(LastError(PathPose(t)), 0.03) << t;
+  }
+  EXPECT_GT(tracker_->visual_odometry_frames(), 0u);
+  EXPECT_EQ(map_.num_keyframes(), keyframes);
+  EXPECT_EQ(map_.num_map_points(), points);
+  EXPECT_TRUE(testing::MapIsConsistent(map_));
+}
+
 }  // namespace
 }  // namespace rrslam
