@@ -71,6 +71,22 @@ int Fail(const std::string& name, ExitCode code, const char* message, const char
   return static_cast<int>(code);
 }
 
+// CLI11's help, without the value a negated flag assigns: "--no-frusta{false}"
+// and "--refine-map,--no-refine-map{false}" read as if the default were
+// false; the flags' descriptions say their defaults in words.
+class HelpFormatter : public CLI::Formatter {
+ public:
+  std::string make_option_name(const CLI::Option* option, bool is_positional) const override {
+    std::string name = CLI::Formatter::make_option_name(option, is_positional);
+    for (size_t open = name.find('{'); open != std::string::npos; open = name.find('{', open)) {
+      const size_t close = name.find('}', open);
+      if (close == std::string::npos) break;
+      name.erase(open, close - open + 1);
+    }
+    return name;
+  }
+};
+
 // With fallthrough, the common flags are accepted after a subcommand too
 // (`rrslam-vocab build ... --quiet`): options a subcommand does not know fall
 // through to the tool.
@@ -89,6 +105,7 @@ int RunTool(int argc, char** argv, const ToolInfo& info,
   RemoveTemporariesOnSignals();  // Before any thread is started.
   CLI::App app(info.description, name);
   app.footer(ExitCodeHelp());
+  app.formatter(std::make_shared<HelpFormatter>());
   app.get_formatter()->column_width(40);
   bool quiet = false;
   int verbose = 0;
