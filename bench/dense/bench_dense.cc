@@ -99,158 +99,214 @@ double StageSeconds(const std::string& summary, const std::string& name) {
   return -1;
 }
 
-}  // namespace
+std::string LoadAverage() {
+  std::ifstream in("/proc/loadavg");
+  std::string a, b, c;
+  in >> a >> b >> c;
+  return a + " " + b + " " + c;
+}
 
-int main(int argc, char** argv) {
-  CLI::App app("Measures rrslam-render dense on a real map.");
+std::string FormatVoxel(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", value);
+  return std::string(text);
+}
+
+struct Options {
   fs::path render, map, sequence, work;
   int runs = 3;
   double voxel = 0.01, refuse_voxel = 0.004, cap_voxel = 0.0052;
   std::string machine, out_prefix;
-  app.add_option("--render", render, "The rrslam-render executable")->required();
-  app.add_option("--map", map, "Map file (rrslam.map)")->required();
-  app.add_option("--sequence", sequence, "The RGB-D sequence it was built from")->required();
-  app.add_option("--work", work, "Folder for the outputs")->required();
-  app.add_option("--runs", runs, "Measured runs")->capture_default_str();
-  app.add_option("--voxel", voxel, "Voxel, metres")->capture_default_str();
-  app.add_option("--refuse-voxel", refuse_voxel,
+};
+
+// What the steps share: the options, the measured command and the figures.
+struct Bench {
+  Options options;
+  std::string load_before;
+  size_t keyframes = 0;              // In the map.
+  fs::path ply;                      // Output of the measured runs.
+  std::vector<std::string> command;  // The measured runs' argv.
+  std::string command_line;
+  std::string section;  // Report section of the measured runs.
+  Report report;
+  bool failed = false;  // A measured or near-cap run failed.
+};
+
+void AddOptions(CLI::App& app, Options* o) {
+  app.add_option("--render", o->render, "The rrslam-render executable")->required();
+  app.add_option("--map", o->map, "Map file (rrslam.map)")->required();
+  app.add_option("--sequence", o->sequence, "The RGB-D sequence it was built from")->required();
+  app.add_option("--work", o->work, "Folder for the outputs")->required();
+  app.add_option("--runs", o->runs, "Measured runs")->capture_default_str();
+  app.add_option("--voxel", o->voxel, "Voxel, metres")->capture_default_str();
+  app.add_option("--refuse-voxel", o->refuse_voxel,
                  "A voxel whose volume exceeds the default cap (0: skip)")
       ->capture_default_str();
-  app.add_option("--cap-voxel", cap_voxel,
-                 "A voxel whose volume is near the default cap: one run, its peak memory (0: skip)")
+  app.add_option("--cap-voxel", o->cap_voxel,
+                 "A voxel whose volume is near the default cap: one run, its "
+                 "peak memory (0: skip)")
       ->capture_default_str();
-  app.add_option("--machine", machine, "Machine description line");
-  app.add_option("--out", out_prefix, "Result files prefix (writes .txt and .json)")->required();
-  CLI11_PARSE(app, argc, argv);
-  fs::create_directories(work);
-  auto load_average = [] {
-    std::ifstream in("/proc/loadavg");
-    std::string a, b, c;
-    in >> a >> b >> c;
-    return a + " " + b + " " + c;
-  };
-  const std::string load_before = load_average();
+  app.add_option("--machine", o->machine, "Machine description line");
+  app.add_option("--out", o->out_prefix, "Result files prefix (writes .txt and .json)")->required();
+}
 
-  const rrslam::MapData map_data = rrslam::ReadMapFile(map);
-  const size_t keyframes = map_data.keyframes.size();
-  auto format = [](double value) {
-    char text[32];
-    std::snprintf(text, sizeof(text), "%g", value);
-    return std::string(text);
-  };
-  auto make_command = [&](const fs::path& out, double v) {
-    return std::vector<std::string>{render.string(), "--quiet",    "dense",           "--map",
-                                    map.string(),    "--sequence", sequence.string(), "--out",
-                                    out.string(),    "--voxel",    format(v)};
-  };
-  const std::string voxel_text = format(voxel);
-  const fs::path ply = work / "model.ply";
-  const std::vector<std::string> command = make_command(ply, voxel);
-  std::string command_line;
-  for (const std::string& a : command) command_line += (command_line.empty() ? "" : " ") + a;
+std::vector<std::string> DenseCommand(const Options& o, const fs::path& out, double voxel) {
+  return std::vector<std::string>{
+      o.render.string(),   "--quiet", "dense",      "--map",   o.map.string(),    "--sequence",
+      o.sequence.string(), "--out",   out.string(), "--voxel", FormatVoxel(voxel)};
+}
 
-  Report report;
-  const std::string s = "dense, " + map.filename().string() + ", --voxel " + voxel_text;
-  report.Note(s, "command: " + command_line);
-  report.Note(s, "map: " + map.string() + " (" + std::to_string(keyframes) + " keyframes), " +
-                     "sequence: " + sequence.string());
+// The work folder, the map's keyframe count, the command and the notes on it.
+void Prepare(Bench* b) {
+  const Options& o = b->options;
+  fs::create_directories(o.work);
+  b->load_before = LoadAverage();
+  b->keyframes = rrslam::ReadMapFile(o.map).keyframes.size();
+  b->ply = o.work / "model.ply";
+  b->command = DenseCommand(o, b->ply, o.voxel);
+  for (const std::string& a : b->command) {
+    b->command_line += (b->command_line.empty() ? "" : " ") + a;
+  }
+  b->section = "dense, " + o.map.filename().string() + ", --voxel " + FormatVoxel(o.voxel);
+  b->report.Note(b->section, "command: " + b->command_line);
+  b->report.Note(b->section, "map: " + o.map.string() + " (" + std::to_string(b->keyframes) +
+                                 " keyframes), " + "sequence: " + o.sequence.string());
+}
+
+// Figures of the measured runs, one entry per completed run.
+struct RunFigures {
   std::vector<double> walls, cpus, rss, fuse, export_s, color, bounds, write;
-  bool failed = false;
-  std::string summary;
-  for (int r = 0; r < runs; ++r) {
-    const ChildRun run = RunChild(command, work / "stdout.txt");
+  std::string summary;  // rrslam-render's summary line of the last run.
+};
+
+// The --runs measured runs; stops at the first that fails.
+RunFigures MeasureRuns(Bench* b) {
+  RunFigures f;
+  for (int r = 0; r < b->options.runs; ++r) {
+    const ChildRun run = RunChild(b->command, b->options.work / "stdout.txt");
     if (run.exit_code != 0) {
       std::cerr << "bench_dense: run " << r << " exited " << run.exit_code << "\n";
-      failed = true;
+      b->failed = true;
       break;
     }
-    walls.push_back(run.wall_s);
-    cpus.push_back(run.cpu_s);
-    rss.push_back(run.max_rss_mb);
-    bounds.push_back(StageSeconds(run.stdout_text, "bounds"));
-    fuse.push_back(StageSeconds(run.stdout_text, "fuse"));
-    export_s.push_back(StageSeconds(run.stdout_text, "export"));
-    color.push_back(StageSeconds(run.stdout_text, "colour"));
-    write.push_back(StageSeconds(run.stdout_text, "write"));
-    summary = run.stdout_text.substr(0, run.stdout_text.find('\n'));
+    f.walls.push_back(run.wall_s);
+    f.cpus.push_back(run.cpu_s);
+    f.rss.push_back(run.max_rss_mb);
+    f.bounds.push_back(StageSeconds(run.stdout_text, "bounds"));
+    f.fuse.push_back(StageSeconds(run.stdout_text, "fuse"));
+    f.export_s.push_back(StageSeconds(run.stdout_text, "export"));
+    f.color.push_back(StageSeconds(run.stdout_text, "colour"));
+    f.write.push_back(StageSeconds(run.stdout_text, "write"));
+    f.summary = run.stdout_text.substr(0, run.stdout_text.find('\n'));
   }
-  if (!failed && !walls.empty()) {
-    const rrslam::PlyCloud cloud = rrslam::ReadPly(ply);
-    size_t fused = 0;
-    for (const std::string& c : cloud.comments) {
-      if (c.rfind("keyframes_fused ", 0) == 0) fused = std::stoul(c.substr(16));
-    }
-    const double peak = *std::max_element(rss.begin(), rss.end());
-    const double wall = Median(walls);
-    report.Note(s, "rrslam-render: " + summary);
-    report.Add(s, {"wall time (median of " + std::to_string(walls.size()) + ")", wall, "s",
-                   "<= 60 s", wall <= 60});
-    report.Add(s, {"  slowest run", *std::max_element(walls.begin(), walls.end()), "s", "-", true});
-    report.Add(s, {"  reading depth for the bounds (median)", Median(bounds), "s", "-", true});
-    report.Add(s, {"  volume, reading images, fusing (median)", Median(fuse), "s", "-", true});
-    report.Add(s, {"  surface points and raycast (median)", Median(export_s), "s", "-", true});
-    report.Add(s, {"  colours from the keyframes (median)", Median(color), "s", "-", true});
-    report.Add(s, {"  writing PLY and PNG (median)", Median(write), "s", "-", true});
-    report.Add(s, {"CPU time / wall time (median)", Median(cpus) / wall, "cores", "-", true});
-    report.Add(s, {"peak memory (max RSS, largest run)", peak, "MB", "<= 4000 MB", peak <= 4000});
-    report.Add(s, {"keyframes fused", static_cast<double>(fused), "of " + std::to_string(keyframes),
-                   "all", fused == keyframes});
-    report.Add(
-        s, {"surface points exported", static_cast<double>(cloud.positions.size()), "", "-", true});
-    const bool complete = cloud.normals.size() == cloud.positions.size() &&
-                          cloud.colors.size() == cloud.positions.size();
-    report.Add(s,
-               {"every point has a normal and a colour", complete ? 1.0 : 0.0, "", "1", complete});
-    report.Add(s, {"PLY size", static_cast<double>(fs::file_size(ply)) / 1e6, "MB", "-", true});
-  } else {
-    report.Add(s, {"runs completed", static_cast<double>(walls.size()),
-                   "of " + std::to_string(runs), "all", false});
-  }
+  return f;
+}
 
-  if (cap_voxel > 0) {
-    const std::string c = "volume near the memory cap (--voxel " + format(cap_voxel) + ")";
-    const ChildRun run = RunChild(make_command(work / "cap.ply", cap_voxel), work / "cap.txt");
-    std::smatch match;
-    if (run.exit_code == 0 && std::regex_search(run.stdout_text, match,
-                                                std::regex("voxels of [0-9.]+ m \\(([0-9]+) MB"))) {
-      report.Note(c, "rrslam-render: " + run.stdout_text.substr(0, run.stdout_text.find('\n')));
-      report.Add(c, {"voxel grid", std::stod(match[1]), "MB",
-                     "<= " + std::to_string(static_cast<int>(3 * 1073.741824)) + " MB (3 GiB)",
-                     std::stod(match[1]) <= 3 * 1073.741824});
-    }
-    report.Add(c, {"exit code", static_cast<double>(run.exit_code), "", "0", run.exit_code == 0});
-    report.Add(c, {"wall time", run.wall_s, "s", "-", true});
-    report.Add(c, {"peak memory (max RSS)", run.max_rss_mb, "MB", "<= 4000 MB",
-                   run.exit_code == 0 && run.max_rss_mb <= 4000});
-    failed = failed || run.exit_code != 0;
+// The runs' times and memory against the goals, and the PLY they wrote.
+void ReportRuns(const RunFigures& f, Bench* b) {
+  const std::string& s = b->section;
+  Report& report = b->report;
+  if (b->failed || f.walls.empty()) {
+    report.Add(s, {"runs completed", static_cast<double>(f.walls.size()),
+                   "of " + std::to_string(b->options.runs), "all", false});
+    return;
   }
-
-  if (refuse_voxel > 0) {
-    const std::string r = "volume above the memory cap (--voxel " + format(refuse_voxel) + ")";
-    const ChildRun run =
-        RunChild(make_command(work / "refused.ply", refuse_voxel), work / "refused.txt");
-    report.Add(r, {"exit code", static_cast<double>(run.exit_code), "", "64", run.exit_code == 64});
-    report.Add(r, {"time to refusal", run.wall_s, "s", "<= 5 s", run.wall_s <= 5});
-    report.Add(r, {"peak memory", run.max_rss_mb, "MB", "-", true});
-    report.Add(r, {"no output written", fs::exists(work / "refused.ply") ? 0.0 : 1.0, "", "1",
-                   !fs::exists(work / "refused.ply")});
+  const rrslam::PlyCloud cloud = rrslam::ReadPly(b->ply);
+  size_t fused = 0;
+  for (const std::string& c : cloud.comments) {
+    if (c.rfind("keyframes_fused ", 0) == 0) fused = std::stoul(c.substr(16));
   }
+  const double peak = *std::max_element(f.rss.begin(), f.rss.end());
+  const double wall = Median(f.walls);
+  report.Note(s, "rrslam-render: " + f.summary);
+  report.Add(s, {"wall time (median of " + std::to_string(f.walls.size()) + ")", wall, "s",
+                 "<= 60 s", wall <= 60});
+  report.Add(s,
+             {"  slowest run", *std::max_element(f.walls.begin(), f.walls.end()), "s", "-", true});
+  report.Add(s, {"  reading depth for the bounds (median)", Median(f.bounds), "s", "-", true});
+  report.Add(s, {"  volume, reading images, fusing (median)", Median(f.fuse), "s", "-", true});
+  report.Add(s, {"  surface points and raycast (median)", Median(f.export_s), "s", "-", true});
+  report.Add(s, {"  colours from the keyframes (median)", Median(f.color), "s", "-", true});
+  report.Add(s, {"  writing PLY and PNG (median)", Median(f.write), "s", "-", true});
+  report.Add(s, {"CPU time / wall time (median)", Median(f.cpus) / wall, "cores", "-", true});
+  report.Add(s, {"peak memory (max RSS, largest run)", peak, "MB", "<= 4000 MB", peak <= 4000});
+  report.Add(s, {"keyframes fused", static_cast<double>(fused),
+                 "of " + std::to_string(b->keyframes), "all", fused == b->keyframes});
+  report.Add(
+      s, {"surface points exported", static_cast<double>(cloud.positions.size()), "", "-", true});
+  const bool complete = cloud.normals.size() == cloud.positions.size() &&
+                        cloud.colors.size() == cloud.positions.size();
+  report.Add(s, {"every point has a normal and a colour", complete ? 1.0 : 0.0, "", "1", complete});
+  report.Add(s, {"PLY size", static_cast<double>(fs::file_size(b->ply)) / 1e6, "MB", "-", true});
+}
 
+// One run with --cap-voxel: its voxel grid and peak memory within the cap.
+void MeasureNearCap(Bench* b) {
+  const Options& o = b->options;
+  const std::string c = "volume near the memory cap (--voxel " + FormatVoxel(o.cap_voxel) + ")";
+  const ChildRun run =
+      RunChild(DenseCommand(o, o.work / "cap.ply", o.cap_voxel), o.work / "cap.txt");
+  std::smatch match;
+  if (run.exit_code == 0 &&
+      std::regex_search(run.stdout_text, match, std::regex("voxels of [0-9.]+ m \\(([0-9]+) MB"))) {
+    b->report.Note(c, "rrslam-render: " + run.stdout_text.substr(0, run.stdout_text.find('\n')));
+    b->report.Add(c, {"voxel grid", std::stod(match[1]), "MB",
+                      "<= " + std::to_string(static_cast<int>(3 * 1073.741824)) + " MB (3 GiB)",
+                      std::stod(match[1]) <= 3 * 1073.741824});
+  }
+  b->report.Add(c, {"exit code", static_cast<double>(run.exit_code), "", "0", run.exit_code == 0});
+  b->report.Add(c, {"wall time", run.wall_s, "s", "-", true});
+  b->report.Add(c, {"peak memory (max RSS)", run.max_rss_mb, "MB", "<= 4000 MB",
+                    run.exit_code == 0 && run.max_rss_mb <= 4000});
+  b->failed = b->failed || run.exit_code != 0;
+}
+
+// One run with --refuse-voxel: refused (exit 64) quickly, nothing written.
+void MeasureAboveCap(Bench* b) {
+  const Options& o = b->options;
+  const std::string r = "volume above the memory cap (--voxel " + FormatVoxel(o.refuse_voxel) + ")";
+  const ChildRun run =
+      RunChild(DenseCommand(o, o.work / "refused.ply", o.refuse_voxel), o.work / "refused.txt");
+  b->report.Add(r,
+                {"exit code", static_cast<double>(run.exit_code), "", "64", run.exit_code == 64});
+  b->report.Add(r, {"time to refusal", run.wall_s, "s", "<= 5 s", run.wall_s <= 5});
+  b->report.Add(r, {"peak memory", run.max_rss_mb, "MB", "-", true});
+  b->report.Add(r, {"no output written", fs::exists(o.work / "refused.ply") ? 0.0 : 1.0, "", "1",
+                    !fs::exists(o.work / "refused.ply")});
+}
+
+// PREFIX.txt and PREFIX.json, and the text on stdout.
+void WriteResults(const Bench& b) {
   std::ostringstream text;
-  text << "# bench-dense: rrslam-render dense on a real map (command: make bench-dense)\n";
-  text << "# machine: " << machine << "\n";
-  text << "# load average (1, 5, 15 min) before: " << load_before << ", after: " << load_average()
+  text << "# bench-dense: rrslam-render dense on a real map (command: make "
+          "bench-dense)\n";
+  text << "# machine: " << b.options.machine << "\n";
+  text << "# load average (1, 5, 15 min) before: " << b.load_before << ", after: " << LoadAverage()
        << "\n";
-  text << report.Text();
-  text << "\nall goals met: " << (report.AllPass() ? "yes" : "no") << "\n";
+  text << b.report.Text();
+  text << "\nall goals met: " << (b.report.AllPass() ? "yes" : "no") << "\n";
   ordered_json j;
-  j["machine"] = machine;
-  j["load_average_before"] = load_before;
-  j["command"] = command_line;
-  j["figures"] = report.Json();
-  j["all_goals_met"] = report.AllPass();
-  rrslam::WriteFileAtomically(out_prefix + ".txt", text.str());
-  rrslam::WriteFileAtomically(out_prefix + ".json", j.dump(2) + "\n");
+  j["machine"] = b.options.machine;
+  j["load_average_before"] = b.load_before;
+  j["command"] = b.command_line;
+  j["figures"] = b.report.Json();
+  j["all_goals_met"] = b.report.AllPass();
+  rrslam::WriteFileAtomically(b.options.out_prefix + ".txt", text.str());
+  rrslam::WriteFileAtomically(b.options.out_prefix + ".json", j.dump(2) + "\n");
   std::cout << text.str();
-  return failed ? 1 : 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Measures rrslam-render dense on a real map.");
+  Bench bench;
+  AddOptions(app, &bench.options);
+  CLI11_PARSE(app, argc, argv);
+  Prepare(&bench);
+  ReportRuns(MeasureRuns(&bench), &bench);
+  if (bench.options.cap_voxel > 0) MeasureNearCap(&bench);
+  if (bench.options.refuse_voxel > 0) MeasureAboveCap(&bench);
+  WriteResults(bench);
+  return bench.failed ? 1 : 0;
 }

@@ -320,38 +320,66 @@ std::string VersionText() {
   return text;
 }
 
-}  // namespace
+// ---- The steps of main --------------------------------------------------------
 
-int main(int argc, char** argv) {
-  CLI::App app("Measures image decoding: rrslam's ReadImage, OpenImageIO and cv::imread.");
-  std::vector<std::string> image_specs;
+struct Options {
+  std::vector<std::string> image_specs;  // NAME:LIST.
   int decodes = 200, starts = 20;
   fs::path start_dir, start_image;
   std::string machine, command, out_prefix;
-  app.add_option("--images", image_specs,
+};
+
+// What the decode measurements found on one image set.
+struct SetResult {
+  size_t listed = 0;                 // Files its lists name (ImageSet::files: those picked).
+  bool usable = false;               // Listed, warmed up and timed without an error.
+  std::vector<Agreement> agreement;  // Per decoder; [0] is ReadImage itself.
+  // Per decoder, the timed decodes (ms): glibc malloc's defaults, its thresholds fixed.
+  std::vector<std::vector<double>> ms_default, ms_fixed;
+};
+
+// What the steps share.
+struct Bench {
+  Options options;
+  std::string driver_command;  // This process's argv, quoted.
+  std::string load_at_start;
+  std::vector<Decoder> decoders;
+  std::vector<ImageSet> sets;
+  std::vector<SetResult> results;  // Per set.
+  Report report;
+  bool failed = false;
+  std::vector<std::string> verdicts;
+  std::vector<std::string> slower_oiio;  // Criteria on which OpenImageIO is slower.
+  ordered_json sets_json = ordered_json::array();
+  ordered_json start_json = ordered_json::array();
+};
+
+void AddOptions(CLI::App& app, Options* o) {
+  app.add_option("--images", o->image_specs,
                  "NAME:LIST, a set of images (repeat; lists of one NAME "
                  "are merged)")
       ->required();
-  app.add_option("--decodes", decodes, "Timed decodes per decoder and set")->capture_default_str();
-  app.add_option("--start-dir", start_dir, "Folder of the bench_image_io_start_* probes")
+  app.add_option("--decodes", o->decodes, "Timed decodes per decoder and set")
+      ->capture_default_str();
+  app.add_option("--start-dir", o->start_dir, "Folder of the bench_image_io_start_* probes")
       ->required();
-  app.add_option("--start-image", start_image, "Image the probes decode")->required();
-  app.add_option("--starts", starts, "Timed runs per probe and setting")->capture_default_str();
-  app.add_option("--machine", machine, "Machine description line");
-  app.add_option("--command", command, "Command that reproduces this run (recorded)");
-  app.add_option("--out", out_prefix, "Result files prefix (writes .txt and .json)")->required();
-  CLI11_PARSE(app, argc, argv);
-  if (decodes < 1 || starts < 1) {
-    std::cerr << "bench_image_io: --decodes and --starts must be >= 1\n";
-    return 64;
-  }
+  app.add_option("--start-image", o->start_image, "Image the probes decode")->required();
+  app.add_option("--starts", o->starts, "Timed runs per probe and setting")->capture_default_str();
+  app.add_option("--machine", o->machine, "Machine description line");
+  app.add_option("--command", o->command, "Command that reproduces this run (recorded)");
+  app.add_option("--out", o->out_prefix, "Result files prefix (writes .txt and .json)")->required();
+}
+
+std::string DriverCommand(int argc, char** argv) {
   std::string driver_command;
   for (int i = 0; i < argc; ++i) {
     driver_command += (i ? " " : "") + rrslam::ShellQuote(argv[i]);
   }
-  const std::string load_at_start = LoadAverage();
+  return driver_command;
+}
 
-  const std::vector<Decoder> decoders = {
+std::vector<Decoder> MakeDecoders() {
+  return {
       {"ReadImage", [](const fs::path& p) { return rrslam::ReadImage(p); }},
       {"OpenImageIO", [](const fs::path& p) { return rrslam::bench::ReadImageOiio(p); }},
       {"OIIO read_image",
@@ -365,62 +393,67 @@ int main(int argc, char** argv) {
          return image;
        }},
   };
+}
 
-  // Image sets, in the order first named.
-  std::vector<ImageSet> sets;
+// Image sets, in the order first named. False (after a message) on a bad spec.
+bool ParseImageSets(const std::vector<std::string>& image_specs, std::vector<ImageSet>* sets) {
   for (const std::string& spec : image_specs) {
     const size_t colon = spec.find(':');
     if (colon == std::string::npos || colon == 0) {
       std::cerr << "bench_image_io: --images " << spec << ": expected NAME:LIST\n";
-      return 64;
+      return false;
     }
     const std::string name = spec.substr(0, colon);
     auto set =
-        std::find_if(sets.begin(), sets.end(), [&](const ImageSet& s) { return s.name == name; });
-    if (set == sets.end()) set = sets.insert(sets.end(), ImageSet{name, {}, {}});
+        std::find_if(sets->begin(), sets->end(), [&](const ImageSet& s) { return s.name == name; });
+    if (set == sets->end()) set = sets->insert(sets->end(), ImageSet{name, {}, {}});
     set->lists.emplace_back(spec.substr(colon + 1));
   }
+  return true;
+}
 
-  Report report;
-  bool failed = false;
-  std::vector<std::string> verdicts;
-  std::vector<std::string> slower_oiio;  // Criteria on which OpenImageIO is slower.
-  ordered_json sets_json = ordered_json::array();
+// Reads the set's lists into set->files, then keeps `decodes` of them evenly
+// spaced when there are more. Returns how many were listed.
+size_t ListFiles(int decodes, ImageSet* set) {
+  for (const fs::path& list : set->lists) {
+    for (const auto& [stamp, file] : rrslam::ReadTimestampList(list)) {
+      set->files.push_back(list.parent_path() / file);
+    }
+  }
+  const size_t listed = set->files.size();
+  if (listed > static_cast<size_t>(decodes)) {
+    std::vector<fs::path> picked;
+    for (size_t i = 0; i < static_cast<size_t>(decodes); ++i) {
+      picked.push_back(set->files[i * listed / static_cast<size_t>(decodes)]);
+    }
+    set->files = std::move(picked);
+  }
+  return listed;
+}
 
-  // Files, warm-up and pixel comparison.
-  std::vector<std::vector<Agreement>> agreements(sets.size());
-  std::vector<bool> usable(sets.size(), false);
-  std::vector<size_t> listed(sets.size(), 0);
-  for (size_t q = 0; q < sets.size(); ++q) {
-    ImageSet& set = sets[q];
+// Files, warm-up and pixel comparison.
+void ListAndWarmUp(Bench* b) {
+  for (size_t q = 0; q < b->sets.size(); ++q) {
+    ImageSet& set = b->sets[q];
+    SetResult& result = b->results[q];
     const std::string s = "decode: " + set.name;
     try {
-      for (const fs::path& list : set.lists) {
-        for (const auto& [stamp, file] : rrslam::ReadTimestampList(list)) {
-          set.files.push_back(list.parent_path() / file);
-        }
-      }
-      listed[q] = set.files.size();
-      if (listed[q] > static_cast<size_t>(decodes)) {
-        std::vector<fs::path> picked;
-        for (size_t i = 0; i < static_cast<size_t>(decodes); ++i) {
-          picked.push_back(set.files[i * listed[q] / static_cast<size_t>(decodes)]);
-        }
-        set.files = std::move(picked);
-      }
+      result.listed = ListFiles(b->options.decodes, &set);
       if (set.files.empty()) throw std::runtime_error("no images listed");
       std::cerr << "bench_image_io: warm-up and pixel comparison, " << set.name << " ("
                 << set.files.size() << " files)" << std::endl;
-      agreements[q] = WarmUpAndCompare(set, decoders);
-      usable[q] = true;
+      result.agreement = WarmUpAndCompare(set, b->decoders);
+      result.usable = true;
     } catch (const std::exception& e) {
-      report.Note(s, std::string("failed: ") + e.what());
+      b->report.Note(s, std::string("failed: ") + e.what());
       std::cerr << "bench_image_io: " << s << ": " << e.what() << "\n";
-      failed = true;
+      b->failed = true;
     }
   }
-  // Timing: glibc malloc's defaults, then its thresholds fixed.
-  std::vector<std::vector<std::vector<double>>> ms_default(sets.size()), ms_fixed(sets.size());
+}
+
+// Timing: glibc malloc's defaults, then its thresholds fixed.
+void TimeDecodes(Bench* b) {
   for (int fixed = 0; fixed < 2; ++fixed) {
     if (fixed) {
       // The largest mmap threshold glibc accepts (32 MiB on 64-bit), and no
@@ -428,252 +461,347 @@ int main(int argc, char** argv) {
       mallopt(M_MMAP_THRESHOLD, 32 << 20);
       mallopt(M_TRIM_THRESHOLD, 1 << 30);
     }
-    for (size_t q = 0; q < sets.size(); ++q) {
-      if (!usable[q]) continue;
-      std::cerr << "bench_image_io: timing " << sets[q].name << ", glibc malloc "
+    for (size_t q = 0; q < b->sets.size(); ++q) {
+      SetResult& result = b->results[q];
+      if (!result.usable) continue;
+      std::cerr << "bench_image_io: timing " << b->sets[q].name << ", glibc malloc "
                 << (fixed ? "thresholds fixed" : "defaults") << std::endl;
       try {
-        (fixed ? ms_fixed : ms_default)[q] = TimeDecoders(sets[q], decoders, decodes);
+        (fixed ? result.ms_fixed : result.ms_default) =
+            TimeDecoders(b->sets[q], b->decoders, b->options.decodes);
       } catch (const std::exception& e) {
-        report.Note("decode: " + sets[q].name, std::string("failed: ") + e.what());
-        std::cerr << "bench_image_io: " << sets[q].name << ": " << e.what() << "\n";
-        failed = true;
-        usable[q] = false;
+        b->report.Note("decode: " + b->sets[q].name, std::string("failed: ") + e.what());
+        std::cerr << "bench_image_io: " << b->sets[q].name << ": " << e.what() << "\n";
+        b->failed = true;
+        result.usable = false;
       }
     }
   }
+}
 
-  for (size_t q = 0; q < sets.size(); ++q) {
-    if (!usable[q]) continue;
-    const ImageSet& set = sets[q];
-    const std::string s = "decode: " + set.name;
-    std::string ext = set.files.front().extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-    const bool png = ext == ".png";
-    const std::string layout = TypeText(rrslam::ReadImage(set.files.front()));
-    std::string lists;
-    for (const fs::path& l : set.lists) lists += (lists.empty() ? "" : ", ") + l.string();
-    report.Note(s, std::string(png ? "PNG" : "JPEG") + " " + layout + "; " +
-                       std::to_string(set.files.size()) + " files evenly spaced of " +
-                       std::to_string(listed[q]) + " listed in " + lists + "; " +
-                       std::to_string(decodes) + " timed decodes per decoder and allocator mode");
-    const double reference = Median(ms_fixed[q][0]);
-    const double reference_default = Median(ms_default[q][0]);
-    ordered_json set_json = {{"name", set.name},    {"format", png ? "PNG" : "JPEG"},
-                             {"layout", layout},    {"files", set.files.size()},
-                             {"listed", listed[q]}, {"decoders", ordered_json::array()}};
-    for (size_t d = 0; d < decoders.size(); ++d) {
-      const double median = Median(ms_fixed[q][d]);
-      const double p95 = Percentile(ms_fixed[q][d], 0.95);
-      const double median_default = Median(ms_default[q][d]);
-      if (d == 0) {
-        report.Add(s, {decoders[d].name + " per image (median)", median, "ms", "-", true});
-      } else {
-        report.Add(s, {decoders[d].name + " per image (median)", median, "ms",
-                       "<= " + Fixed(1.05 * reference, 2) + " ms", median <= 1.05 * reference});
-      }
-      report.Add(s, {"  p95", p95, "ms", "-", true});
-      report.Add(s, {"  glibc malloc defaults: median", median_default, "ms", "-", true});
-      report.Add(
-          s, {"  glibc malloc defaults: p95", Percentile(ms_default[q][d], 0.95), "ms", "-", true});
-      ordered_json decoder_json = {
-          {"decoder", decoders[d].name},
+// Decoder d's times on a set (section s) against ReadImage's median
+// `reference`; its JSON entry.
+ordered_json ReportDecodeTimes(const std::string& s, size_t d, double reference, const SetResult& r,
+                               Bench* b) {
+  const std::string& name = b->decoders[d].name;
+  const double median = Median(r.ms_fixed[d]);
+  const double p95 = Percentile(r.ms_fixed[d], 0.95);
+  const double median_default = Median(r.ms_default[d]);
+  if (d == 0) {
+    b->report.Add(s, {name + " per image (median)", median, "ms", "-", true});
+  } else {
+    b->report.Add(s, {name + " per image (median)", median, "ms",
+                      "<= " + Fixed(1.05 * reference, 2) + " ms", median <= 1.05 * reference});
+  }
+  b->report.Add(s, {"  p95", p95, "ms", "-", true});
+  b->report.Add(s, {"  glibc malloc defaults: median", median_default, "ms", "-", true});
+  b->report.Add(
+      s, {"  glibc malloc defaults: p95", Percentile(r.ms_default[d], 0.95), "ms", "-", true});
+  return {{"decoder", name},
           {"malloc_thresholds_fixed", {{"median_ms", median}, {"p95_ms", p95}}},
           {"malloc_defaults",
-           {{"median_ms", median_default}, {"p95_ms", Percentile(ms_default[q][d], 0.95)}}}};
-      if (d > 0) {
-        const Agreement& a = agreements[q][d];
-        const bool must_match = png;  // Lossless: every decoder must give the same values.
-        report.Add(s, {"  images of another type or size", double(a.other_type_or_size),
-                       "of " + std::to_string(set.files.size()), "0", a.other_type_or_size == 0});
-        report.Add(s, {"  max |difference| from ReadImage", a.max_abs, "",
-                       must_match ? "0" : "- (IDCT)", !must_match || a.max_abs == 0});
-        report.Add(s, {"  images differing from ReadImage", double(a.differing_images),
-                       "of " + std::to_string(set.files.size()), must_match ? "0" : "-",
-                       !must_match || a.differing_images == 0});
-        const double share = a.values > 0 ? 100 * a.differing_values / a.values : 0;
-        report.Add(s, {"  channel values differing", share, "%", "-", true});
-        decoder_json["pixels"] = {{"other_type_or_size", a.other_type_or_size},
-                                  {"max_abs_difference", a.max_abs},
-                                  {"differing_images", a.differing_images},
-                                  {"differing_values_percent", share}};
-        const bool slower = median > 1.05 * reference;
-        verdicts.push_back(decoders[d].name + " decode is " + Fixed(median, 2) + " ms vs " +
-                           Fixed(reference, 2) + " ms (ReadImage) per " + set.name + " image, " +
-                           Fixed(median / reference, 2) + " x (glibc malloc defaults: " +
-                           Fixed(median_default, 2) + " vs " + Fixed(reference_default, 2) +
-                           " ms): " + (slower ? "slower" : "not slower") + "; pixels " +
-                           (a.other_type_or_size == 0 && a.max_abs == 0
-                                ? "identical"
-                                : "max |difference| " + Fixed(a.max_abs, 0)));
-        if (slower && d == 1) slower_oiio.push_back("decode of " + set.name);
-      }
-      set_json["decoders"].push_back(decoder_json);
-    }
-    sets_json.push_back(set_json);
-  }
+           {{"median_ms", median_default}, {"p95_ms", Percentile(r.ms_default[d], 0.95)}}}};
+}
 
-  // ---- Start-up ----
-  const std::vector<Probe> probes = {
+// A candidate's pixels against ReadImage's on a set of `files` files; their JSON.
+ordered_json ReportPixels(const std::string& s, const Agreement& a, size_t files, bool png,
+                          Report* report) {
+  const bool must_match = png;  // Lossless: every decoder must give the same values.
+  report->Add(s, {"  images of another type or size", double(a.other_type_or_size),
+                  "of " + std::to_string(files), "0", a.other_type_or_size == 0});
+  report->Add(s, {"  max |difference| from ReadImage", a.max_abs, "", must_match ? "0" : "- (IDCT)",
+                  !must_match || a.max_abs == 0});
+  report->Add(s, {"  images differing from ReadImage", double(a.differing_images),
+                  "of " + std::to_string(files), must_match ? "0" : "-",
+                  !must_match || a.differing_images == 0});
+  const double share = a.values > 0 ? 100 * a.differing_values / a.values : 0;
+  report->Add(s, {"  channel values differing", share, "%", "-", true});
+  return {{"other_type_or_size", a.other_type_or_size},
+          {"max_abs_difference", a.max_abs},
+          {"differing_images", a.differing_images},
+          {"differing_values_percent", share}};
+}
+
+// Candidate d's decode verdict on a set.
+void AddDecodeVerdict(const ImageSet& set, const SetResult& r, size_t d, Bench* b) {
+  const double reference = Median(r.ms_fixed[0]);
+  const double reference_default = Median(r.ms_default[0]);
+  const double median = Median(r.ms_fixed[d]);
+  const double median_default = Median(r.ms_default[d]);
+  const Agreement& a = r.agreement[d];
+  const bool slower = median > 1.05 * reference;
+  b->verdicts.push_back(
+      b->decoders[d].name + " decode is " + Fixed(median, 2) + " ms vs " + Fixed(reference, 2) +
+      " ms (ReadImage) per " + set.name + " image, " + Fixed(median / reference, 2) +
+      " x (glibc malloc defaults: " + Fixed(median_default, 2) + " vs " +
+      Fixed(reference_default, 2) + " ms): " + (slower ? "slower" : "not slower") + "; pixels " +
+      (a.other_type_or_size == 0 && a.max_abs == 0 ? "identical"
+                                                   : "max |difference| " + Fixed(a.max_abs, 0)));
+  if (slower && d == 1) b->slower_oiio.push_back("decode of " + set.name);
+}
+
+// Figures, JSON and verdicts of the decode measurements on one set.
+void ReportSet(const ImageSet& set, const SetResult& r, Bench* b) {
+  const std::string s = "decode: " + set.name;
+  std::string ext = set.files.front().extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+  const bool png = ext == ".png";
+  const std::string layout = TypeText(rrslam::ReadImage(set.files.front()));
+  std::string lists;
+  for (const fs::path& l : set.lists) lists += (lists.empty() ? "" : ", ") + l.string();
+  b->report.Note(s, std::string(png ? "PNG" : "JPEG") + " " + layout + "; " +
+                        std::to_string(set.files.size()) + " files evenly spaced of " +
+                        std::to_string(r.listed) + " listed in " + lists + "; " +
+                        std::to_string(b->options.decodes) +
+                        " timed decodes per decoder and allocator mode");
+  const double reference = Median(r.ms_fixed[0]);
+  ordered_json set_json = {{"name", set.name},   {"format", png ? "PNG" : "JPEG"},
+                           {"layout", layout},   {"files", set.files.size()},
+                           {"listed", r.listed}, {"decoders", ordered_json::array()}};
+  for (size_t d = 0; d < b->decoders.size(); ++d) {
+    ordered_json decoder_json = ReportDecodeTimes(s, d, reference, r, b);
+    if (d > 0) {
+      decoder_json["pixels"] = ReportPixels(s, r.agreement[d], set.files.size(), png, &b->report);
+      AddDecodeVerdict(set, r, d, b);
+    }
+    set_json["decoders"].push_back(decoder_json);
+  }
+  b->sets_json.push_back(set_json);
+}
+
+// The start-up runs of the probes.
+struct StartUp {
+  std::vector<Probe> probes;
+  // Per variant v: probe v / 2, LD_BIND_NOW set when v is odd.
+  std::vector<std::vector<StartSample>> samples;  // Empty when the runs failed.
+  std::vector<LoaderStatistics> loader;
+};
+
+std::vector<std::string> VariantEnv(size_t v) {
+  return v % 2 ? std::vector<std::string>{"LD_BIND_NOW=1"} : std::vector<std::string>{};
+}
+
+StartUp MeasureStartUp(Bench* b) {
+  const fs::path& start_dir = b->options.start_dir;
+  const fs::path& start_image = b->options.start_image;
+  StartUp st;
+  st.probes = {
       {"ReadImage", start_dir / "bench_image_io_start_rrslam"},
       {"OpenImageIO", start_dir / "bench_image_io_start_oiio"},
       {"cv::imread", start_dir / "bench_image_io_start_imgcodecs"},
   };
-  // Variant v: probe v / 2, LD_BIND_NOW set when v is odd.
-  const size_t variants = 2 * probes.size();
-  auto variant_env = [](size_t v) {
-    return v % 2 ? std::vector<std::string>{"LD_BIND_NOW=1"} : std::vector<std::string>{};
-  };
-  std::vector<std::vector<StartSample>> samples(variants);
-  std::vector<LoaderStatistics> loader(variants);
-  ordered_json start_json = ordered_json::array();
+  const size_t variants = 2 * st.probes.size();
+  st.samples.resize(variants);
+  st.loader.resize(variants);
   try {
-    std::cerr << "bench_image_io: start-up, " << starts << " runs of " << variants << " variants"
-              << std::endl;
+    std::cerr << "bench_image_io: start-up, " << b->options.starts << " runs of " << variants
+              << " variants" << std::endl;
     for (size_t v = 0; v < variants; ++v) {
-      Spawn(probes[v / 2].exe, start_image, variant_env(v));  // Warm-up.
+      Spawn(st.probes[v / 2].exe, start_image, VariantEnv(v));  // Warm-up.
     }
-    for (int r = 0; r < starts; ++r) {
+    for (int r = 0; r < b->options.starts; ++r) {
       for (size_t k = 0; k < variants; ++k) {
         const size_t v = (static_cast<size_t>(r) + k) % variants;
-        samples[v].push_back(Spawn(probes[v / 2].exe, start_image, variant_env(v)));
+        st.samples[v].push_back(Spawn(st.probes[v / 2].exe, start_image, VariantEnv(v)));
       }
     }
     // The loader's relocation counts (the same in every run).
     const fs::path log =
         fs::temp_directory_path() / ("bench_image_io_ld_" + std::to_string(getpid()) + ".txt");
     for (size_t v = 0; v < variants; ++v) {
-      std::vector<std::string> env = variant_env(v);
+      std::vector<std::string> env = VariantEnv(v);
       env.push_back("LD_DEBUG=statistics");
-      Spawn(probes[v / 2].exe, start_image, env, log);
-      loader[v] = ParseLoaderStatistics(rrslam::ReadFileToString(log));
+      Spawn(st.probes[v / 2].exe, start_image, env, log);
+      st.loader[v] = ParseLoaderStatistics(rrslam::ReadFileToString(log));
     }
     fs::remove(log);
   } catch (const std::exception& e) {
-    report.Note("start-up", std::string("failed: ") + e.what());
+    b->report.Note("start-up", std::string("failed: ") + e.what());
     std::cerr << "bench_image_io: start-up: " << e.what() << "\n";
-    failed = true;
-    samples.assign(variants, {});
+    b->failed = true;
+    st.samples.assign(variants, {});
   }
+  return st;
+}
 
-  auto field = [](const std::vector<StartSample>& runs, double StartSample::*f) {
-    std::vector<double> values;
-    for (const StartSample& s : runs) values.push_back(s.*f);
-    return values;
-  };
-  const bool have_starts = !samples[0].empty();
-  const double base_wall = have_starts ? Median(field(samples[0], &StartSample::wall_ms)) : 0;
-  const double base_wall_p95 =
-      have_starts ? Percentile(field(samples[0], &StartSample::wall_ms), 0.95) : 0;
-  const double base_cpu = have_starts ? Median(field(samples[0], &StartSample::cpu_ms)) : 0;
-  for (size_t p = 0; p < probes.size() && have_starts; ++p) {
-    const std::string s =
-        "start-up: " + probes[p].exe.filename().string() + " (" + probes[p].decoder + ")";
-    const std::vector<StartSample>& lazy = samples[2 * p];
-    const std::vector<StartSample>& now = samples[2 * p + 1];
-    const std::vector<double> wall = field(lazy, &StartSample::wall_ms);
-    const double wall_median = Median(wall), cpu = Median(field(lazy, &StartSample::cpu_ms));
-    const int ldd = LddEntries(probes[p].exe);
-    report.Note(s, "decodes " + start_image.string() + "; " + std::to_string(lazy.size()) +
-                       " runs after one warm-up, interleaved with the other probes");
-    if (p == 0) {
-      report.Add(s, {"wall, spawn to reaped (median)", wall_median, "ms", "-", true});
-    } else {
-      report.Add(s, {"wall, spawn to reaped (median)", wall_median, "ms",
-                     "<= " + Fixed(base_wall_p95, 1) + " ms", wall_median <= base_wall_p95});
-    }
-    report.Add(s, {"  p95", Percentile(wall, 0.95), "ms", "-", true});
-    report.Add(s, {"  spawn to main() (median)", Median(field(lazy, &StartSample::to_main_ms)),
-                   "ms", "-", true});
-    report.Add(s, {"  CPU time used before main() (median)",
-                   Median(field(lazy, &StartSample::cpu_at_main_ms)), "ms", "-", true});
-    report.Add(s, {"  first decode in the process (median)",
-                   Median(field(lazy, &StartSample::decode_ms)), "ms", "-", true});
-    report.Add(s, {"  decode end to reaped (median)", Median(field(lazy, &StartSample::after_ms)),
-                   "ms", "-", true});
-    report.Add(s, {"CPU time, user + system (median)", cpu, "ms", "-", true});
-    report.Add(s, {"ldd entries", double(ldd), "", "-", true});
-    report.Add(s,
-               {"objects mapped at main()", double(lazy.front().objects_at_main), "", "-", true});
-    report.Add(
-        s, {"objects mapped after the decode", double(lazy.front().objects_after), "", "-", true});
-    const double now_wall = Median(field(now, &StartSample::wall_ms));
-    report.Add(s, {"LD_BIND_NOW=1: wall (median)", now_wall, "ms", "-", true});
-    report.Add(s, {"LD_BIND_NOW=1: CPU time (median)", Median(field(now, &StartSample::cpu_ms)),
-                   "ms", "-", true});
-    ordered_json probe_json = {{"probe", probes[p].exe.filename().string()},
-                               {"decoder", probes[p].decoder},
-                               {"ldd_entries", ldd},
-                               {"objects_at_main", lazy.front().objects_at_main},
-                               {"objects_after_decode", lazy.front().objects_after}};
-    for (int bind_now = 0; bind_now < 2; ++bind_now) {
-      const std::vector<StartSample>& runs = samples[2 * p + bind_now];
-      const LoaderStatistics& l = loader[2 * p + bind_now];
-      ordered_json runs_json = {{"wall_ms", field(runs, &StartSample::wall_ms)},
-                                {"to_main_ms", field(runs, &StartSample::to_main_ms)},
-                                {"cpu_at_main_ms", field(runs, &StartSample::cpu_at_main_ms)},
-                                {"decode_ms", field(runs, &StartSample::decode_ms)},
-                                {"after_decode_ms", field(runs, &StartSample::after_ms)},
-                                {"cpu_ms", field(runs, &StartSample::cpu_ms)},
-                                {"symbol_relocations", l.relocations},
-                                {"relative_relocations", l.relative_relocations}};
-      probe_json[bind_now ? "ld_bind_now" : "lazy"] = runs_json;
-      report.Add(s, {bind_now ? "  with LD_BIND_NOW=1" : "symbol relocations at start (ld.so)",
-                     l.relocations, "", "-", true});
-    }
-    start_json.push_back(probe_json);
-    if (p == 0) continue;
-    const bool slower = wall_median > base_wall_p95;
-    const int base_ldd = LddEntries(probes[0].exe);
-    verdicts.push_back(probes[p].decoder + " start-up " + (wall_median >= base_wall ? "+" : "") +
-                       Fixed(wall_median - base_wall, 1) + " ms wall (" + Fixed(wall_median, 1) +
-                       " vs " + Fixed(base_wall, 1) + " ms, median), " +
-                       (cpu >= base_cpu ? "+" : "") + Fixed(cpu - base_cpu, 1) + " ms CPU, " +
-                       std::to_string(ldd) + " vs " + std::to_string(base_ldd) +
-                       " ldd entries: " + (slower ? "slower" : "not slower"));
-    verdicts.push_back(probes[p].decoder + " start-up with LD_BIND_NOW=1: " + Fixed(now_wall, 1) +
-                       " ms vs " + Fixed(wall_median, 1) + " ms lazy binding (median wall)");
-    if (slower && p == 1) slower_oiio.push_back("start-up");
-  }
+std::vector<double> Field(const std::vector<StartSample>& runs, double StartSample::*f) {
+  std::vector<double> values;
+  for (const StartSample& s : runs) values.push_back(s.*f);
+  return values;
+}
 
-  std::string overall;
-  if (failed) {
-    overall = "none: some measurements failed";
-  } else if (!slower_oiio.empty()) {
-    std::string what;
-    for (const std::string& w : slower_oiio) what += (what.empty() ? "" : ", ") + w;
-    overall = "keep common/image_io.cc: OpenImageIO is slower (" + what + ")";
+// The ReadImage probe's figures, which the candidates' are compared with.
+struct StartBaseline {
+  double wall = 0, wall_p95 = 0, cpu = 0;  // ms.
+};
+
+// Probe p's timings and mapped objects, in section s.
+void ReportProbeFigures(const std::string& s, size_t p, const StartUp& st,
+                        const StartBaseline& base, int ldd, Bench* b) {
+  const std::vector<StartSample>& lazy = st.samples[2 * p];
+  const std::vector<StartSample>& now = st.samples[2 * p + 1];
+  const std::vector<double> wall = Field(lazy, &StartSample::wall_ms);
+  const double wall_median = Median(wall);
+  Report& report = b->report;
+  report.Note(s, "decodes " + b->options.start_image.string() + "; " + std::to_string(lazy.size()) +
+                     " runs after one warm-up, interleaved with the other probes");
+  if (p == 0) {
+    report.Add(s, {"wall, spawn to reaped (median)", wall_median, "ms", "-", true});
   } else {
-    overall = "replace common/image_io.cc with OpenImageIO: not slower on any criterion";
+    report.Add(s, {"wall, spawn to reaped (median)", wall_median, "ms",
+                   "<= " + Fixed(base.wall_p95, 1) + " ms", wall_median <= base.wall_p95});
   }
-  const std::string load_at_end = LoadAverage();
+  report.Add(s, {"  p95", Percentile(wall, 0.95), "ms", "-", true});
+  report.Add(s, {"  spawn to main() (median)", Median(Field(lazy, &StartSample::to_main_ms)), "ms",
+                 "-", true});
+  report.Add(s, {"  CPU time used before main() (median)",
+                 Median(Field(lazy, &StartSample::cpu_at_main_ms)), "ms", "-", true});
+  report.Add(s, {"  first decode in the process (median)",
+                 Median(Field(lazy, &StartSample::decode_ms)), "ms", "-", true});
+  report.Add(s, {"  decode end to reaped (median)", Median(Field(lazy, &StartSample::after_ms)),
+                 "ms", "-", true});
+  report.Add(s, {"CPU time, user + system (median)", Median(Field(lazy, &StartSample::cpu_ms)),
+                 "ms", "-", true});
+  report.Add(s, {"ldd entries", double(ldd), "", "-", true});
+  report.Add(s, {"objects mapped at main()", double(lazy.front().objects_at_main), "", "-", true});
+  report.Add(
+      s, {"objects mapped after the decode", double(lazy.front().objects_after), "", "-", true});
+  report.Add(s, {"LD_BIND_NOW=1: wall (median)", Median(Field(now, &StartSample::wall_ms)), "ms",
+                 "-", true});
+  report.Add(s, {"LD_BIND_NOW=1: CPU time (median)", Median(Field(now, &StartSample::cpu_ms)), "ms",
+                 "-", true});
+}
 
+// Probe p's runs as JSON, and its relocation counts in section s.
+ordered_json ReportProbeRuns(const std::string& s, size_t p, const StartUp& st, int ldd,
+                             Report* report) {
+  const std::vector<StartSample>& lazy = st.samples[2 * p];
+  ordered_json probe_json = {{"probe", st.probes[p].exe.filename().string()},
+                             {"decoder", st.probes[p].decoder},
+                             {"ldd_entries", ldd},
+                             {"objects_at_main", lazy.front().objects_at_main},
+                             {"objects_after_decode", lazy.front().objects_after}};
+  for (int bind_now = 0; bind_now < 2; ++bind_now) {
+    const std::vector<StartSample>& runs = st.samples[2 * p + bind_now];
+    const LoaderStatistics& l = st.loader[2 * p + bind_now];
+    ordered_json runs_json = {{"wall_ms", Field(runs, &StartSample::wall_ms)},
+                              {"to_main_ms", Field(runs, &StartSample::to_main_ms)},
+                              {"cpu_at_main_ms", Field(runs, &StartSample::cpu_at_main_ms)},
+                              {"decode_ms", Field(runs, &StartSample::decode_ms)},
+                              {"after_decode_ms", Field(runs, &StartSample::after_ms)},
+                              {"cpu_ms", Field(runs, &StartSample::cpu_ms)},
+                              {"symbol_relocations", l.relocations},
+                              {"relative_relocations", l.relative_relocations}};
+    probe_json[bind_now ? "ld_bind_now" : "lazy"] = runs_json;
+    report->Add(s, {bind_now ? "  with LD_BIND_NOW=1" : "symbol relocations at start (ld.so)",
+                    l.relocations, "", "-", true});
+  }
+  return probe_json;
+}
+
+// Candidate probe p's start-up verdicts.
+void AddStartVerdicts(size_t p, const StartUp& st, const StartBaseline& base, int ldd, Bench* b) {
+  const double wall_median = Median(Field(st.samples[2 * p], &StartSample::wall_ms));
+  const double cpu = Median(Field(st.samples[2 * p], &StartSample::cpu_ms));
+  const double now_wall = Median(Field(st.samples[2 * p + 1], &StartSample::wall_ms));
+  const std::string& decoder = st.probes[p].decoder;
+  const bool slower = wall_median > base.wall_p95;
+  const int base_ldd = LddEntries(st.probes[0].exe);
+  b->verdicts.push_back(decoder + " start-up " + (wall_median >= base.wall ? "+" : "") +
+                        Fixed(wall_median - base.wall, 1) + " ms wall (" + Fixed(wall_median, 1) +
+                        " vs " + Fixed(base.wall, 1) + " ms, median), " +
+                        (cpu >= base.cpu ? "+" : "") + Fixed(cpu - base.cpu, 1) + " ms CPU, " +
+                        std::to_string(ldd) + " vs " + std::to_string(base_ldd) +
+                        " ldd entries: " + (slower ? "slower" : "not slower"));
+  b->verdicts.push_back(decoder + " start-up with LD_BIND_NOW=1: " + Fixed(now_wall, 1) +
+                        " ms vs " + Fixed(wall_median, 1) + " ms lazy binding (median wall)");
+  if (slower && p == 1) b->slower_oiio.push_back("start-up");
+}
+
+// Figures, JSON and verdicts of the start-up runs (none when they failed).
+void ReportStartUp(const StartUp& st, Bench* b) {
+  if (st.samples[0].empty()) return;
+  const std::vector<double> base_walls = Field(st.samples[0], &StartSample::wall_ms);
+  const StartBaseline base = {Median(base_walls), Percentile(base_walls, 0.95),
+                              Median(Field(st.samples[0], &StartSample::cpu_ms))};
+  for (size_t p = 0; p < st.probes.size(); ++p) {
+    const std::string s =
+        "start-up: " + st.probes[p].exe.filename().string() + " (" + st.probes[p].decoder + ")";
+    const int ldd = LddEntries(st.probes[p].exe);
+    ReportProbeFigures(s, p, st, base, ldd, b);
+    b->start_json.push_back(ReportProbeRuns(s, p, st, ldd, &b->report));
+    if (p > 0) AddStartVerdicts(p, st, base, ldd, b);
+  }
+}
+
+// The rule, applied to OpenImageIO read with read_native_scanlines.
+std::string OverallVerdict(const Bench& b) {
+  if (b.failed) return "none: some measurements failed";
+  if (!b.slower_oiio.empty()) {
+    std::string what;
+    for (const std::string& w : b.slower_oiio) what += (what.empty() ? "" : ", ") + w;
+    return "keep common/image_io.cc: OpenImageIO is slower (" + what + ")";
+  }
+  return "replace common/image_io.cc with OpenImageIO: not slower on any criterion";
+}
+
+// PREFIX.txt and PREFIX.json, and the text on stdout.
+void WriteResults(const Bench& b, const std::string& overall) {
+  const Options& o = b.options;
+  const std::string load_at_end = LoadAverage();
   std::ostringstream text;
   text << "# bench-image-io: image decoding, rrslam's ReadImage (common/image_io.h) vs "
           "OpenImageIO vs cv::imread\n";
-  text << "# command: " << (command.empty() ? driver_command : command) << "\n";
-  text << "# driver: " << driver_command << "\n";
-  text << "# machine: " << machine << "\n";
+  text << "# command: " << (o.command.empty() ? b.driver_command : o.command) << "\n";
+  text << "# driver: " << b.driver_command << "\n";
+  text << "# machine: " << o.machine << "\n";
   text << "# versions: " << VersionText() << "\n";
-  text << "# load average at start: " << load_at_start << ", at end: " << load_at_end << "\n";
-  text << report.Text();
+  text << "# load average at start: " << b.load_at_start << ", at end: " << load_at_end << "\n";
+  text << b.report.Text();
   text << "\nverdicts (slower: decode median > 1.05 x ReadImage's; start-up median > the "
           "ReadImage probe's p95):\n";
-  for (const std::string& v : verdicts) text << "  " << v << "\n";
+  for (const std::string& v : b.verdicts) text << "  " << v << "\n";
   text << "\nverdict: " << overall << "\n";
   ordered_json j;
-  j["machine"] = machine;
-  j["command"] = command;
-  j["driver"] = driver_command;
+  j["machine"] = o.machine;
+  j["command"] = o.command;
+  j["driver"] = b.driver_command;
   j["versions"] = VersionText();
-  j["load_average"] = {{"start", load_at_start}, {"end", load_at_end}};
-  j["figures"] = report.Json();
-  j["decode"] = sets_json;
-  j["start_up"] = start_json;
-  j["verdicts"] = verdicts;
+  j["load_average"] = {{"start", b.load_at_start}, {"end", load_at_end}};
+  j["figures"] = b.report.Json();
+  j["decode"] = b.sets_json;
+  j["start_up"] = b.start_json;
+  j["verdicts"] = b.verdicts;
   j["verdict"] = overall;
-  rrslam::WriteFileAtomically(out_prefix + ".txt", text.str());
-  rrslam::WriteFileAtomically(out_prefix + ".json", j.dump(2) + "\n");
+  rrslam::WriteFileAtomically(o.out_prefix + ".txt", text.str());
+  rrslam::WriteFileAtomically(o.out_prefix + ".json", j.dump(2) + "\n");
   std::cout << text.str();
-  return failed ? 1 : 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Measures image decoding: rrslam's ReadImage, OpenImageIO and cv::imread.");
+  Bench b;
+  AddOptions(app, &b.options);
+  CLI11_PARSE(app, argc, argv);
+  if (b.options.decodes < 1 || b.options.starts < 1) {
+    std::cerr << "bench_image_io: --decodes and --starts must be >= 1\n";
+    return 64;
+  }
+  b.driver_command = DriverCommand(argc, argv);
+  b.load_at_start = LoadAverage();
+  b.decoders = MakeDecoders();
+  if (!ParseImageSets(b.options.image_specs, &b.sets)) return 64;
+  b.results.resize(b.sets.size());
+
+  ListAndWarmUp(&b);
+  TimeDecodes(&b);
+  for (size_t q = 0; q < b.sets.size(); ++q) {
+    if (b.results[q].usable) ReportSet(b.sets[q], b.results[q], &b);
+  }
+  ReportStartUp(MeasureStartUp(&b), &b);
+
+  WriteResults(b, OverallVerdict(b));
+  return b.failed ? 1 : 0;
 }
