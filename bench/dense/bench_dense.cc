@@ -32,6 +32,7 @@
 #include "bench/common/bench_report.h"
 #include "common/atomic_file.h"
 #include "common/clock.h"
+#include "common/errors.h"
 #include "common/text.h"
 #include "stages/mapstore/map_file.h"
 #include "stages/render/ply.h"
@@ -303,7 +304,12 @@ int main(int argc, char** argv) {
   Bench bench;
   AddOptions(app, &bench.options);
   CLI11_PARSE(app, argc, argv);
-  Prepare(&bench);
+  try {
+    Prepare(&bench);
+  } catch (const rrslam::Error& e) {  // A missing or bad map: one line, its exit code.
+    std::fprintf(stderr, "bench_dense: error: %s\n", e.what());
+    return static_cast<int>(e.code());
+  }
   ReportRuns(MeasureRuns(&bench), &bench);
   if (bench.options.cap_voxel > 0) MeasureNearCap(&bench);
   if (bench.options.refuse_voxel > 0) MeasureAboveCap(&bench);
