@@ -408,7 +408,7 @@ std::string ReadFileToString(const fs::path& path) {
   // A pipe is read (`--gt <(zcat gt.txt.gz)`); a device never ends
   // (/dev/zero) or is not data: refused, as a folder is.
   const std::string why = WhyNotAFile(path);
-  if (!why.empty() && why != "is a FIFO" && why != "does not exist") {
+  if (!why.empty() && why != kPathIsAFifo && why != kPathDoesNotExist) {
     throw NoInputError(path.string() + ": " + why + ", expected a file");
   }
   std::ifstream stream(path, std::ios::binary);

@@ -6,8 +6,8 @@
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
-#include "common/path_check.h"
 #include "common/image_io.h"
+#include "common/path_check.h"
 #include "common/text.h"
 
 namespace rrslam {

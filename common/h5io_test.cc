@@ -86,12 +86,7 @@ std::vector<uint8_t> FileBytes(const std::filesystem::path& path) {
 // `what` of the DataError `fn` throws, or "no error".
 template <typename Fn>
 std::string DataErrorOf(Fn fn) {
-  try {
-    fn();
-  } catch (const DataError& e) {
-    return e.what();
-  }
-  return "no error";
+  return testing::ErrorMessage<DataError>(fn);
 }
 
 TEST(H5io, OpensFileImagesInMemory) {

@@ -10,8 +10,6 @@
 namespace rrslam {
 namespace {
 
-constexpr char kMissing[] = "does not exist";
-
 // "" for the wanted type; else what the path is or why it cannot be looked at.
 std::string Describe(const std::filesystem::path& path, bool want_folder) {
   struct stat info = {};
@@ -19,7 +17,7 @@ std::string Describe(const std::filesystem::path& path, bool want_folder) {
     const int error = errno;
     if (error == ENOENT) {
       struct stat link = {};
-      return ::lstat(path.c_str(), &link) == 0 ? "is a broken symbolic link" : kMissing;
+      return ::lstat(path.c_str(), &link) == 0 ? "is a broken symbolic link" : kPathDoesNotExist;
     }
     if (error == ENAMETOOLONG) return "has a name longer than the system allows";
     return std::string("cannot be reached: ") + std::strerror(error);
@@ -32,7 +30,7 @@ std::string Describe(const std::filesystem::path& path, bool want_folder) {
     case S_IFDIR:
       return "is a folder";
     case S_IFIFO:
-      return "is a FIFO";
+      return kPathIsAFifo;
     case S_IFCHR:
       return "is a character device";
     case S_IFBLK:
@@ -47,7 +45,7 @@ std::string Describe(const std::filesystem::path& path, bool want_folder) {
 void Require(const std::filesystem::path& path, const std::string& what, bool folder) {
   const std::string why = Describe(path, folder);
   if (why.empty()) return;
-  if (why == kMissing) throw NoInputError(path.string() + ": no such " + what);
+  if (why == kPathDoesNotExist) throw NoInputError(path.string() + ": no such " + what);
   throw NoInputError(path.string() + ": " + why + ", not a " + what);
 }
 

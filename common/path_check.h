@@ -11,6 +11,10 @@
 
 namespace rrslam {
 
+// Two of the reasons below, for callers that treat them apart.
+inline constexpr char kPathDoesNotExist[] = "does not exist";
+inline constexpr char kPathIsAFifo[] = "is a FIFO";
+
 // Why `path` (symbolic links followed) is not a regular file, or "" when it
 // is one: "does not exist", "is a broken symbolic link", "is a folder",
 // "is a FIFO", "is a character device", "is a block device", "is a socket",

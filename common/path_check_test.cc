@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 
 #include <string>
+#include <utility>
 
 #include "common/dataset.h"
 #include "common/errors.h"
@@ -17,12 +18,7 @@ namespace fs = std::filesystem;
 // The NoInputError message of `fn`, or "no error".
 template <typename Fn>
 std::string NoInputMessage(Fn&& fn) {
-  try {
-    fn();
-  } catch (const NoInputError& e) {
-    return e.what();
-  }
-  return "no error";
+  return testing::ErrorMessage<NoInputError>(std::forward<Fn>(fn));
 }
 
 TEST(PathCheck, NamesWhatIsThere) {
@@ -51,8 +47,9 @@ TEST(PathCheck, ReadersSayWhatTheInputIs) {
   EXPECT_EQ(NoInputMessage([&] { (void)ReadSettings(dir / "s.yaml"); }),
             (dir / "s.yaml").string() + ": no such settings file");
   const fs::path too_long = dir / std::string(300, 's');
-  EXPECT_EQ(NoInputMessage([&] { (void)RgbdSequence::Open(too_long); }),
-            too_long.string() + ": has a name longer than the system allows, not a sequence folder");
+  EXPECT_EQ(
+      NoInputMessage([&] { (void)RgbdSequence::Open(too_long); }),
+      too_long.string() + ": has a name longer than the system allows, not a sequence folder");
   // A FIFO listed as an image.
   const fs::path seq = dir / "seq";
   fs::create_directories(seq / "rgb");

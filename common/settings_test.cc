@@ -333,8 +333,8 @@ TEST(Settings, RejectsYamlNestedTooDeep) {
   EXPECT_THROW(CheckYamlStructure(nested(kMaxYamlNesting + 1), "s.yaml"), DataError);
   // Brackets in quoted strings and keys, and comments, do not nest.
   EXPECT_NO_THROW(CheckYamlStructure("%YAML:1.0\nk[[: '" + std::string(200, '[') + "'\nc: [1, # " +
-                                       std::string(200, '{') + "\n 2]\n",
-                                   "s.yaml"));
+                                         std::string(200, '{') + "\n 2]\n",
+                                     "s.yaml"));
 }
 
 // Issue 36: what OpenCV's parser reads wrongly without a word is refused.

@@ -75,6 +75,18 @@ void WriteTextFile(const std::filesystem::path& path, const std::string& content
 // ends in ".tmp", see common/atomic_file.h), sorted; empty when none (or
 // when `dir` does not exist). A finished or failed write must leave none.
 std::vector<std::string> TemporaryLeftovers(const std::filesystem::path& dir);
+// what() of the exception of type E that `fn` throws, or "no error" (other
+// exceptions pass through): for tests of one-line error messages.
+template <typename E, typename Fn>
+std::string ErrorMessage(Fn&& fn) {
+  try {
+    fn();
+  } catch (const E& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
 inline std::vector<std::string> TemporaryLeftovers(const TempDir& dir) {
   return TemporaryLeftovers(dir.path());
 }

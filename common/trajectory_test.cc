@@ -7,8 +7,8 @@
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
-#include "common/text.h"
 #include "common/testing.h"
+#include "common/text.h"
 
 namespace rrslam {
 namespace {

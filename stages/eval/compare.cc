@@ -168,7 +168,7 @@ CompareTable ReadCompareTable(const std::vector<CompareColumn>& columns, size_t 
     const std::string why = WhyNotAFolder(columns[c].dir);
     if (!why.empty()) {
       throw NoInputError("--column " + columns[c].name + ": " + columns[c].dir.string() + ": " +
-                         (why == "does not exist" ? "no such folder" : why + ", not a folder"));
+                         (why == kPathDoesNotExist ? "no such folder" : why + ", not a folder"));
     }
     for (const std::string& name : SequenceFolders(columns[c])) {
       present[c].insert(name);

@@ -121,10 +121,10 @@ RpeResult ComputeRpe(const Trajectory& gt_input, const Trajectory& est_input,
     if (result.skipped_pairs == 0) {
       // The files are fine; the evaluation asked for has nothing to measure.
       throw AlgorithmError("a delta of " + Format("%g", options.delta) + " " +
-                      (options.delta_unit == DeltaUnit::kFrames ? "frame(s)" : "s") +
-                      " leaves no pose pair in an estimate of " + std::to_string(est.size()) +
-                      " poses spanning " + Format("%.6f", est_stamps.back() - est_stamps.front()) +
-                      " s");
+                           (options.delta_unit == DeltaUnit::kFrames ? "frame(s)" : "s") +
+                           " leaves no pose pair in an estimate of " + std::to_string(est.size()) +
+                           " poses spanning " +
+                           Format("%.6f", est_stamps.back() - est_stamps.front()) + " s");
     }
     throw DataError("no stamps matched: no pose pair of the estimate (plus offset " +
                     Format("%g", options.offset) + " s) has ground truth within max_difference " +

@@ -626,7 +626,8 @@ TEST_F(SynthTool, InterruptionRemovesTheTemporaryFolder) {
     const std::string script =
         "set -m; " + tool + " --out " + testing::Quote(seq) +
         " --width 96 --height 72 --frames 5000 --texel-size 0.01 -q --seed 9 & pid=$!; "
-        "for i in $(seq 1200); do ls " + testing::Quote(dir_.path()) +
+        "for i in $(seq 1200); do ls " +
+        testing::Quote(dir_.path()) +
         " | grep -q 'tmp$' && break; sleep 0.05; done; sleep 0.3; kill -" + signal +
         " $pid; wait $pid; echo status $?";
     const auto r = testing::RunCommand("bash -c " + ShellQuote(script));

@@ -327,8 +327,8 @@ TEST_F(CullingProtectionTest, EachBrokenInvariantIsReported) {
                              "its keypoint " + std::to_string(index) + " does not point back");
   k0->SetMapPoint(index, p);
   k2->SetMapPoint(199, p);
-  EXPECT_EQ(Violation(), "keyframe 2 keypoint 199: map point " + std::to_string(p->id()) +
-                             " does not list it");
+  EXPECT_EQ(Violation(),
+            "keyframe 2 keypoint 199: map point " + std::to_string(p->id()) + " does not list it");
   k2->SetMapPoint(199, nullptr);
   // A culled point still referenced by a keyframe.
   map_.CullMapPoint(p);
