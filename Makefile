@@ -13,7 +13,7 @@
 #   make test-asan  every test under ASan + UBSan (build-asan/)
 #   make test-asan-readers  the reader stages' tests under ASan + UBSan (CI)
 #   make format     clang-format every source file
-#   make deps       install missing Debian packages only
+#   make deps       install missing Debian packages only (deps-build: those the tools need)
 
 SHELL := /bin/bash
 .DELETE_ON_ERROR:
@@ -26,20 +26,31 @@ DATA_ROOT ?= data
 SHARED_DATA ?= $(abspath ../shared/data)
 BIN := $(BUILD_DIR)/bin
 
-.PHONY: all build tools deps configure test test-tsan test-asan test-asan-readers demo bench fuzz format clean help
+.PHONY: all build tools deps deps-build configure test test-tsan test-asan test-asan-readers demo bench fuzz format clean help
 
 all: build
 
 help:
 	@awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' Makefile
 
+# deps: every package (tests and fuzzers too); deps-build: what building and
+# running the tools needs (`make demo`).
 deps:
-	@scripts/install-deps.sh
+	@scripts/install-deps.sh all
 
-$(BUILD_DIR)/CMakeCache.txt: | deps
-	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) -DRRSLAM_DATA_DIR=$(SHARED_DATA)
+deps-build:
+	@scripts/install-deps.sh build
 
-configure: deps $(BUILD_DIR)/CMakeCache.txt
+# Ninja (Debian's ninja-build, in the build packages) schedules the whole
+# tree at once: a target's files compile while the libraries it links are
+# still building, where Make's generator waits (bench/results/build-*.txt).
+# A build tree keeps the generator it was configured with.
+CMAKE_GENERATOR ?= $(if $(shell command -v ninja),Ninja,Unix Makefiles)
+$(BUILD_DIR)/CMakeCache.txt: | deps-build
+	cmake -S . -B $(BUILD_DIR) -G "$(CMAKE_GENERATOR)" -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) \
+	  -DRRSLAM_DATA_DIR=$(SHARED_DATA)
+
+configure: deps-build $(BUILD_DIR)/CMakeCache.txt
 
 build: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS)
@@ -53,7 +64,7 @@ TOOLS := rrslam-synth rrslam-extract rrslam-cluster rrslam-vocab rrslam-track rr
 tools: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target $(TOOLS)
 
-test: build
+test: deps build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)
 
 # --- Sanitizer builds -----------------------------------------------------------

@@ -13,9 +13,14 @@
 //   }
 #pragma once
 
-#include <CLI/CLI.hpp>
 #include <functional>
 #include <string>
+
+// CLI11 is only declared here: its header costs about 6 s of compilation per
+// file that includes it (g++ -O3), so only the files that bind options do.
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace rrslam {
 

@@ -92,4 +92,11 @@ std::string Format(const char* format, double value) {
   return buffer;
 }
 
+std::string AsciiLowercase(std::string text) {
+  for (char& c : text) {
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+  }
+  return text;
+}
+
 }  // namespace rrslam

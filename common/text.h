@@ -44,4 +44,7 @@ std::string Hex64(uint64_t value);
 // messages and reports; at most 63 characters (a longer result is cut).
 std::string Format(const char* format, double value);
 
+// `text` with ASCII letters in lower case (file extensions, option values).
+std::string AsciiLowercase(std::string text);
+
 }  // namespace rrslam

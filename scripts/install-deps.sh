@@ -1,18 +1,28 @@
 #!/usr/bin/env bash
-# Installs exactly the Debian packages rrslam needs to build, test and run.
+# Installs exactly the Debian packages rrslam needs, and only those missing.
 # Does nothing (and needs no root) when every package is already installed.
-# Usage: scripts/install-deps.sh [--print]   (--print lists the packages and exits)
+# Usage: scripts/install-deps.sh [build|all] [--print]
+#   build  what building the tools and running them needs (`make demo`, `make tools`)
+#   all    build's, plus what only the tests and fuzzers need (`make test`); the default
+#   --print  lists the group's packages and exits
 set -euo pipefail
 
+group=all
+print=0
+for arg in "$@"; do
+  case "$arg" in
+    build | all) group=$arg ;;
+    --print) print=1 ;;
+    *) echo "install-deps: unknown argument '$arg' (expected build, all or --print)" >&2; exit 64 ;;
+  esac
+done
+
 PACKAGES=(
-  build-essential cmake ccache pkg-config git
+  build-essential cmake ninja-build ccache pkg-config git
   libopencv-dev libopencv-contrib-dev libeigen3-dev libceres-dev libflann-dev libopenimageio-dev
   libhdf5-dev libcli11-dev libspdlog-dev libgtest-dev nlohmann-json3-dev
   libxxhash-dev libpng-dev libjpeg-dev
-  clang libclang-rt-14-dev   # libFuzzer for `make fuzz` and the fuzz smoke tests
   nodejs     # node and npm: bundle the render stage's browser viewer (three.js, esbuild)
-  chromium   # headless WebGL test of that viewer (render/html_viewer)
-  slurm-wlm munge  # LAUNCHER=srun: the e2e/slurm test starts a one-node Slurm of its own
 )
 # Debian's nodejs comes without npm (a package of its own); a Node.js that
 # brings its own npm (NodeSource's, as on the project's machines) conflicts
@@ -20,8 +30,15 @@ PACKAGES=(
 if ! command -v npm >/dev/null; then
   PACKAGES+=(npm)
 fi
+if [[ "$group" == all ]]; then
+  PACKAGES+=(
+    clang libclang-rt-14-dev   # libFuzzer for `make fuzz` and the fuzz smoke tests
+    chromium   # headless WebGL test of that viewer (render/html_viewer)
+    slurm-wlm munge  # LAUNCHER=srun: the e2e/slurm test starts a one-node Slurm of its own
+  )
+fi
 
-if [[ "${1:-}" == "--print" ]]; then
+if [[ $print -eq 1 ]]; then
   printf '%s\n' "${PACKAGES[@]}"
   exit 0
 fi
@@ -37,7 +54,8 @@ if [[ ${#missing[@]} -eq 0 ]]; then
   exit 0
 fi
 
-echo "install-deps: installing ${missing[*]}" >&2
+echo "install-deps: installing ${#missing[@]} Debian packages ($group): ${missing[*]}" >&2
+echo "install-deps: on a fresh machine this takes about N minutes" >&2
 SUDO=""
 if [[ $(id -u) -ne 0 ]]; then
   if command -v sudo >/dev/null; then SUDO="sudo"; else

@@ -7,6 +7,7 @@
 // Every frame is extracted by each variant in turn (the order rotates from
 // frame to frame), so slow drifts of the machine affect all variants alike.
 // Prints a plain-text report on stdout.
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>

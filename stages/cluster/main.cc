@@ -1,4 +1,6 @@
 // rrslam-cluster: hierarchical k-means of ORB descriptors into a vocabulary tree.
+#include <CLI/CLI.hpp>
+
 #include "common/cli.h"
 #include "stages/cluster/cluster.h"
 

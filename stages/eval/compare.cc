@@ -18,6 +18,7 @@
 #include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/path_check.h"
+#include "common/text.h"
 #include "stages/eval/eval.h"
 #include "stages/eval/plot.h"
 
@@ -53,12 +54,6 @@ std::string CsvField(const std::string& text) {
     out += c;
   }
   return out + "\"";
-}
-
-std::string Lowercase(std::string text) {
-  std::transform(text.begin(), text.end(), text.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return text;
 }
 
 // Sequence folders of a column: subfolders (symbolic links followed), without
@@ -580,7 +575,7 @@ bool EvalCompareOptions::Check(std::string* why) const {
     return false;
   }
   if (!plot.Check(why)) return false;
-  if (!plot_path.empty() && Lowercase(plot_path.extension().string()) != ".png") {
+  if (!plot_path.empty() && AsciiLowercase(plot_path.extension().string()) != ".png") {
     *why = "plot " + plot_path.string() + " must be a .png file";
     return false;
   }

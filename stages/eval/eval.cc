@@ -15,6 +15,7 @@
 #include "common/image_io.h"
 #include "common/json_text.h"
 #include "common/output_path.h"
+#include "common/text.h"
 #include "common/trajectory.h"
 
 namespace rrslam {
@@ -55,12 +56,6 @@ class PendingOutput {
 
 std::string Header(const nlohmann::ordered_json& run, const std::string& columns) {
   return "# " + Producer(kStage) + " " + DumpJson(run) + "\n# " + columns + "\n";
-}
-
-std::string Lowercase(std::string text) {
-  std::transform(text.begin(), text.end(), text.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return text;
 }
 
 // Prefixes a data or algorithm error of the computation with the files it
@@ -111,7 +106,7 @@ bool EvalAteOptions::Check(std::string* why) const {
     return false;
   }
   if (!ate.Check(why) || !plot.Check(why)) return false;
-  if (!plot_path.empty() && Lowercase(plot_path.extension().string()) != ".png") {
+  if (!plot_path.empty() && AsciiLowercase(plot_path.extension().string()) != ".png") {
     *why = "plot " + plot_path.string() + " must be a .png file";
     return false;
   }

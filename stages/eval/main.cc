@@ -1,6 +1,7 @@
 // rrslam-eval: absolute trajectory error and relative pose error of an
 // estimated camera trajectory against ground truth (TUM RGB-D benchmark
 // definitions). See docs/eval.md.
+#include <CLI/CLI.hpp>
 #include <iostream>
 #include <string>
 #include <utility>

@@ -1,4 +1,6 @@
 // rrslam-extract: ORB features of an RGB-D sequence into a features file.
+#include <CLI/CLI.hpp>
+
 #include "common/cli.h"
 #include "stages/extract/extract.h"
 

@@ -18,11 +18,11 @@
 #include "stages/extract/orb_pattern.h"
 
 namespace rrslam {
-namespace {
 
 // Node of the distribution quadtree: a box [x0, x1) x [y0, y1) and the
 // corners inside it, as the range [begin, end) of an index array that the
-// splits partition in place (no allocation per node).
+// splits partition in place (no allocation per node). Not file-local: the
+// extractor's work buffers (LevelWork, held by OrbExtractor::Impl) hold them.
 struct QuadNode {
   float x0, y0, x1, y1;
   uint32_t begin, end;
@@ -31,6 +31,8 @@ struct QuadNode {
   // so splitting it further cannot separate anything.
   bool Splittable() const { return count() > 1 && (x1 - x0 > 0.5f || y1 - y0 > 0.5f); }
 };
+
+namespace {
 
 // Splits `node` into its four quadrants (partitioning its index range) and
 // appends the non-empty ones to `out`.

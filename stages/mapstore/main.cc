@@ -1,4 +1,6 @@
 // rrslam-mapstore: inspects, verifies and compares saved SLAM maps (rrslam.map).
+#include <CLI/CLI.hpp>
+
 #include "common/cli.h"
 #include "stages/mapstore/mapstore_tool.h"
 

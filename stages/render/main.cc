@@ -1,5 +1,7 @@
 // rrslam-render: pictures, standard files and a browser viewer of saved maps
 // and trajectories, and a dense model.
+#include <CLI/CLI.hpp>
+
 #include "common/cli.h"
 #include "stages/render/render_tool.h"
 

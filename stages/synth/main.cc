@@ -1,5 +1,6 @@
 // rrslam-synth: renders a synthetic TUM-layout RGB-D sequence of a textured
 // room with exact ground truth. See docs/synth.md.
+#include <CLI/CLI.hpp>
 #include <sstream>
 
 #include "common/cli.h"

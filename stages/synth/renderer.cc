@@ -10,10 +10,6 @@
 namespace rrslam::synth {
 namespace {
 
-// Same tolerance as Scene::RayCast: pixel rays through a shared edge hit one
-// of its faces, never the gap between them.
-constexpr double kEdgeTolerance = 1e-9;
-
 // A surface set up for one view. For the ray of pixel (u, v),
 //   d(u, v) = ((u - cx) / fx, (v - cy) / fy, 1),
 // the plane n_cam . p = h is met at depth z = h / den with

@@ -14,10 +14,6 @@
 namespace rrslam::synth {
 namespace {
 
-// Tolerance of the inside-rectangle test: rays through a shared edge hit one
-// of the two faces, never the gap between them.
-constexpr double kEdgeTolerance = 1e-9;
-
 const char* kFaceNames[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
 
 }  // namespace

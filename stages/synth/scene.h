@@ -23,6 +23,11 @@
 
 namespace rrslam::synth {
 
+// Tolerance of the inside-rectangle test (metres in the surface's plane),
+// shared by Scene::RayCast and the renderer: rays through a shared edge hit
+// one of the two faces, never the gap between them.
+inline constexpr double kEdgeTolerance = 1e-9;
+
 // A textured planar rectangle. A point with texture coordinates (a, b),
 // 0 <= a <= size_a, 0 <= b <= size_b (metres), is
 //   point_world = origin_world + a * axis_a_world + b * axis_b_world.

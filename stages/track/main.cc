@@ -1,4 +1,6 @@
 // rrslam-track: RGB-D SLAM (tracking, local mapping, loop closing) over a TUM-layout sequence.
+#include <CLI/CLI.hpp>
+
 #include "common/cli.h"
 #include "stages/track/track.h"
 
@@ -90,6 +92,16 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
   app.add_flag("--small-vocab-groups", o->small_vocab_groups,
                "Vocabularies of < 6 levels group BoW candidates at depth 2 (ORB-SLAM2: 4 "
                "levels above the words)");
+  app.add_option_function<std::string>(
+         "--relocalization",
+         [o](const std::string& name) {
+           rrslam::ParseRelocalizationMethod(name, &o->tracker.relocalization.method);
+         },
+         "Relocalization stages: bow (ORB-SLAM2: keyframe shortlist by bag of words), direct "
+         "(frame descriptors against every map point) or bow+direct (direct when bow finds no "
+         "pose)")
+      ->check(CLI::IsMember({"bow", "bow+direct", "direct"}))
+      ->default_str(rrslam::ToString(o->tracker.relocalization.method));
   app.add_flag("--expand-all-local-keyframes", o->tracker.expand_all_local_keyframes,
                "Local map: neighbours of every observing keyframe (ORB-SLAM2 stops at the "
                "first parent)");

@@ -322,6 +322,7 @@ nlohmann::json TrackOptions::ToJson() const {
           {"ba_depth_fallback", local_mapping.bundle_adjustment.depth_fallback},
           {"small_vocab_groups", small_vocab_groups},
           {"expand_all_local_keyframes", tracker.expand_all_local_keyframes},
+          {"relocalization", ToString(tracker.relocalization.method)},
           {"loop_closing", loop_closing},
           {"refine_map", refine_map},
           {"save_map", save_map.string()},
@@ -415,7 +416,9 @@ class TrackSession {
   void SelectFrames() {
     if (options_.first_frame > 0) {
       const size_t first = static_cast<size_t>(options_.first_frame);
-      frames_.erase(frames_.begin(), std::lower_bound(frames_.begin(), frames_.end(), first));
+      const auto kept = std::lower_bound(frames_.begin(), frames_.end(), first);
+      first_kept_ = static_cast<size_t>(kept - frames_.begin());
+      frames_.erase(frames_.begin(), kept);
     }
     if (options_.max_frames > 0 && frames_.size() > static_cast<size_t>(options_.max_frames)) {
       frames_.resize(options_.max_frames);
@@ -492,6 +495,7 @@ class TrackSession {
     startup.map_load_ms = MillisecondsSince(map_start);
     loaded_.identity = MapIdentity(info);
     tracker_->StartOnLoadedMap();
+    startup.relocalization_index_ms = tracker_->relocalization_index_ms();
     if (!options_.localization_only) mapper_->WatchLoadedPoints(map_.MapPoints());
     spdlog::info("track: map {} loaded in {:.1f} ms: {} keyframes, {} map points ({})", source,
                  startup.map_load_ms, loaded_.keyframes, loaded_.map_points,
@@ -537,8 +541,8 @@ class TrackSession {
     std::vector<OrbDescriptor> descriptors;
     cv::Mat gray, depth;
     if (use_features_) {
-      const auto kps = features_.FrameKeypoints(k);
-      const auto ds = features_.FrameDescriptors(k);
+      const auto kps = features_.FrameKeypoints(first_kept_ + k);
+      const auto ds = features_.FrameDescriptors(first_kept_ + k);
       keypoints.assign(kps.begin(), kps.end());
       descriptors.assign(ds.begin(), ds.end());
     } else {
@@ -715,6 +719,7 @@ class TrackSession {
                         {"loop_closures", closer_->counters().loops.size()},
                         {"resets", tracker_->resets()}};
     report["lost_timestamps"] = summary_.lost_timestamps;
+    report["relocalization_attempts"] = RelocalizationReport();
     const LocalMappingCounters& counters = mapper_->counters();
     report["local_mapping"] = {{"keyframes_processed", counters.keyframes},
                                {"triangulated_points", counters.triangulated_points},
@@ -730,6 +735,22 @@ class TrackSession {
     report["map"] = MapReport();
     report["peak_rss_mb"] = PeakRssMegabytes();
     return report;
+  }
+
+  // Every relocalization attempt: the frame's timestamp, the stage that
+  // found its pose ("" none), BoW candidates, direct matches, inliers, times.
+  nlohmann::json RelocalizationReport() const {
+    nlohmann::json attempts = nlohmann::json::array();
+    for (const RelocalizationAttempt& a : tracker_->relocalization_attempts()) {
+      attempts.push_back({{"timestamp", a.timestamp},
+                          {"stage", a.stage},
+                          {"bow_candidates", a.bow_candidates},
+                          {"direct_matches", a.direct_matches},
+                          {"inliers", a.inliers},
+                          {"index_ms", a.index_ms},
+                          {"ms", a.ms}});
+    }
+    return attempts;
   }
 
   nlohmann::json LoopClosingReport() const {
@@ -804,6 +825,7 @@ class TrackSession {
             {"vocabulary_load_ms", startup.vocabulary_load_ms},
             {"map_load_ms", startup.map_load_ms},
             {"map_read_ms", startup.map_read_ms},
+            {"relocalization_index_ms", startup.relocalization_index_ms},
             {"first_pose_ms", startup.first_pose_ms},
             {"first_pose_frame", startup.first_pose_frame}};
   }
@@ -870,6 +892,8 @@ class TrackSession {
   bool use_features_ = false;
   FeaturesFile features_;
   std::vector<size_t> frames_;  // Sequence index of each frame to track.
+  // Frames --first-frame skipped: frames_[k] is features-file frame first_kept_ + k.
+  size_t first_kept_ = 0;
   Vocabulary vocabulary_;
   int width_ = 0, height_ = 0;
   std::optional<SensorModel> sensor_;

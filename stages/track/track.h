@@ -125,8 +125,11 @@ struct TrackOptions {
 // Start-up and offline-map figures of a run (run.json "startup" and "map").
 struct TrackStartup {
   double vocabulary_load_ms = 0;
-  double map_load_ms = 0;         // Read, check and rebuild; 0 without --load-map.
-  double map_read_ms = 0;         // Of which reading and checking the file.
+  double map_load_ms = 0;  // Read, check and rebuild; 0 without --load-map.
+  double map_read_ms = 0;  // Of which reading and checking the file.
+  // Relocalization's map-point index built on the loaded map (after
+  // map_load_ms; 0 with --relocalization bow).
+  double relocalization_index_ms = 0;
   double first_pose_ms = -1;      // From process start to the first pose; -1 = none.
   int64_t first_pose_frame = -1;  // Sequence index of that frame.
 };

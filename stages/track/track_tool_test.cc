@@ -30,8 +30,10 @@ using ::rrslam::testing::WriteTextFile;
 
 // A TUM-layout sequence of `frames` frames of a blurred random texture, with
 // constant depth `depth_raw` (depth units; 0 = none), 640 x 480. From frame
-// `cut` on (if >= 0) the camera sees another, unrelated texture.
-void WriteSequence(const fs::path& dir, int frames, uint16_t depth_raw, int cut = -1) {
+// `cut` on (if >= 0) the camera sees another, unrelated texture, with depth
+// `depth_after_cut` when it is given (>= 0).
+void WriteSequence(const fs::path& dir, int frames, uint16_t depth_raw, int cut = -1,
+                   int depth_after_cut = -1) {
   fs::create_directories(dir / "rgb");
   fs::create_directories(dir / "depth");
   auto make_texture = [](uint64_t seed) {
@@ -43,13 +45,15 @@ void WriteSequence(const fs::path& dir, int frames, uint16_t depth_raw, int cut 
   };
   const cv::Mat texture = make_texture(5), other = make_texture(6);
   const cv::Mat depth(480, 640, CV_16UC1, cv::Scalar(depth_raw));
+  const cv::Mat depth_cut(480, 640, CV_16UC1,
+                          cv::Scalar(depth_after_cut >= 0 ? depth_after_cut : depth_raw));
   std::ofstream rgb_list(dir / "rgb.txt"), depth_list(dir / "depth.txt");
   rgb_list << "# timestamp filename\n";
   depth_list << "# timestamp filename\n";
   for (int i = 0; i < frames; ++i) {
     const std::string name = std::to_string(i) + ".png";
     cv::imwrite((dir / "rgb" / name).string(), cut >= 0 && i >= cut ? other : texture);
-    cv::imwrite((dir / "depth" / name).string(), depth);
+    cv::imwrite((dir / "depth" / name).string(), cut >= 0 && i >= cut ? depth_cut : depth);
     rgb_list << 100 + 0.05 * i << " rgb/" << name << "\n";
     depth_list << 100 + 0.05 * i << " depth/" << name << "\n";
   }
@@ -268,6 +272,28 @@ TEST_F(TrackToolTest, FeaturesFileMustMatchSequenceAndSettings) {
   write_features(dir_ / "good.h5", yaml, rgb0);
   r = Track(Seq(), SettingsFile(), Voc(), "--features " + (dir_ / "good.h5").string());
   EXPECT_EQ(r.exit_code, 75) << r.output;
+}
+
+// --first-frame with --features tracks the features of the frames it names:
+// the features of frame k were those of the file's k-th frame counted from
+// --first-frame (frame 0's on a cold start at frame N), so a cold start on a
+// map from cached features got the first frame's pose. The sequence shows
+// another texture without depth from frame 6 on; starting there, the
+// features run must
+// fail as the images run does: those frames have no depth.
+TEST_F(TrackToolTest, FirstFrameWithFeaturesUsesThatFramesFeatures) {
+  WriteSequence(dir_ / "cut", 12, 10000, 6, 0);
+  const std::string seq = (dir_ / "cut").string();
+  const std::string settings = (dir_ / "cut" / "settings.yaml").string();
+  const fs::path features = dir_ / "cut.h5";
+  ASSERT_EQ(RunTool("extract", "-q --sequence " + seq + " --settings " + settings + " --out " +
+                                   features.string())
+                .exit_code,
+            0);
+  EXPECT_EQ(Track(seq, settings, Voc(), "--first-frame 6").exit_code, 75);
+  const auto r = Track(seq, settings, Voc(), "--first-frame 6 --features " + features.string());
+  EXPECT_EQ(r.exit_code, 75) << r.output;
+  EXPECT_NE(r.output.find("tracking never initialized"), std::string::npos) << r.output;
 }
 
 // Issue 36: folder names in Latin-1 (legal on Linux, not UTF-8) made run.json

@@ -1,4 +1,6 @@
 // rrslam-vocab: builds, converts, inspects and queries bag-of-words vocabularies.
+#include <CLI/CLI.hpp>
+
 #include "common/cli.h"
 #include "stages/vocab/vocab_tool.h"
 

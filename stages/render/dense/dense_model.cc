@@ -57,12 +57,6 @@ bool Fail(std::string* why, const std::string& text) {
   return false;
 }
 
-std::string Lowercase(std::string text) {
-  std::transform(text.begin(), text.end(), text.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return text;
-}
-
 // Sets OpenCV's worker threads for a scope.
 class OpenCvThreads {
  public:
@@ -443,10 +437,10 @@ bool DenseOptions::Check(std::string* why) const {
     return Fail(why, "--sequence is empty; the RGB-D sequence folder of the map is required");
   }
   if (out.empty()) return Fail(why, "--out is empty; an output point cloud (.ply) is required");
-  if (Lowercase(out.extension().string()) != ".ply") {
+  if (AsciiLowercase(out.extension().string()) != ".ply") {
     return Fail(why, "--out " + out.string() + " must be a .ply file");
   }
-  if (Lowercase(ImagePath().extension().string()) != ".png") {
+  if (AsciiLowercase(ImagePath().extension().string()) != ".png") {
     return Fail(why, "--image " + ImagePath().string() + " must be a .png file");
   }
   const std::vector<NamedPath> inputs = {

@@ -1,10 +1,15 @@
 #include "stages/track/module/relocalizer.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <map>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <random>
+#include <tuple>
 
 #include "stages/track/match/matcher.h"
 #include "stages/track/solve/ransac.h"
@@ -127,14 +132,133 @@ PnpResult SolvePnpRansac(const std::vector<Eigen::Vector3d>& points_world,
   return result;
 }
 
-KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves) const {
-  std::fill(frame->map_points.begin(), frame->map_points.end(), nullptr);
-  const std::vector<KeyFrame*> candidates = database_.DetectRelocalizationCandidates(frame->bow());
-  const FrameFeatures& f = frame->features();
-  const Eigen::Matrix3d K = sensor_.camera.K();
-  const Matcher bow_matcher(sensor_, options_.bow_ratio, true);
-  const Matcher projection_matcher(sensor_, 0.9, true);
+std::string ToString(RelocalizationMethod method) {
+  switch (method) {
+    case RelocalizationMethod::kBow:
+      return "bow";
+    case RelocalizationMethod::kBowDirect:
+      return "bow+direct";
+    case RelocalizationMethod::kDirect:
+      return "direct";
+  }
+  return "bow";
+}
 
+bool ParseRelocalizationMethod(const std::string& name, RelocalizationMethod* method) {
+  for (RelocalizationMethod m : {RelocalizationMethod::kBow, RelocalizationMethod::kBowDirect,
+                                 RelocalizationMethod::kDirect}) {
+    if (name == ToString(m)) {
+      *method = m;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool RelocalizationOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  const DirectMatchOptions& d = direct;
+  if (d.max_distance < 0 || d.max_distance > 256) {
+    return fail("direct.max_distance = " + std::to_string(d.max_distance) +
+                "; must be in [0, 256]");
+  }
+  if (!(d.ratio > 0 && d.ratio <= 1)) {
+    return fail("direct.ratio = " + std::to_string(d.ratio) + "; must be in (0, 1]");
+  }
+  if (!(d.same_point_radius >= 0)) {
+    return fail("direct.same_point_radius = " + std::to_string(d.same_point_radius) +
+                "; must be >= 0");
+  }
+  if (d.max_matches < 3) {
+    return fail("direct.max_matches = " + std::to_string(d.max_matches) + "; must be >= 3");
+  }
+  if (d.ransac.max_iterations < 1) {
+    return fail("direct.ransac.max_iterations = " + std::to_string(d.ransac.max_iterations) +
+                "; must be >= 1");
+  }
+  if (min_inliers < min_pose_inliers) {
+    return fail("min_inliers = " + std::to_string(min_inliers) +
+                "; must be >= min_pose_inliers = " + std::to_string(min_pose_inliers));
+  }
+  return d.index.Check(why);
+}
+
+namespace {
+
+void ClearMatches(Frame* frame) {
+  std::fill(frame->map_points.begin(), frame->map_points.end(), nullptr);
+  std::fill(frame->outlier.begin(), frame->outlier.end(), 0);
+}
+
+std::vector<MapPointId> MatchedIds(const Frame& frame) {
+  std::vector<MapPointId> ids;
+  for (MapPoint* p : frame.map_points) {
+    if (p != nullptr) ids.push_back(p->id());
+  }
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
+// The keyframe that observes most of the frame's matched points (ties: the
+// lowest id).
+KeyFrame* MostObservingKeyFrame(const Frame& frame) {
+  std::map<KeyFrameId, std::pair<int, KeyFrame*>> votes;
+  for (MapPoint* p : frame.map_points) {
+    if (p == nullptr || p->bad()) continue;
+    for (const MapPoint::Observation& o : p->observations()) {
+      auto& vote = votes[o.keyframe->id()];
+      ++vote.first;
+      vote.second = o.keyframe;
+    }
+  }
+  KeyFrame* best = nullptr;
+  int most = 0;
+  for (const auto& [id, vote] : votes) {
+    if (vote.first > most && !vote.second->bad()) {
+      most = vote.first;
+      best = vote.second;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+double Relocalizer::PrepareIndex() {
+  if (options_.method == RelocalizationMethod::kBow || index_.IsCurrent(map_)) return 0;
+  const auto start = std::chrono::steady_clock::now();
+  index_.Build(map_);
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves,
+                                  RelocalizationAttempt* attempt) {
+  RelocalizationAttempt local;
+  RelocalizationAttempt* a = attempt != nullptr ? attempt : &local;
+  *a = RelocalizationAttempt{};
+  ClearMatches(frame);
+  if (options_.method != RelocalizationMethod::kDirect) {
+    if (KeyFrame* kf = RelocalizeByBow(frame, solves, a)) {
+      a->stage = "bow";
+      return kf;
+    }
+  }
+  if (options_.method != RelocalizationMethod::kBow) {
+    if (KeyFrame* kf = RelocalizeDirect(frame, solves, a)) {
+      a->stage = "direct";
+      return kf;
+    }
+  }
+  ClearMatches(frame);
+  return nullptr;
+}
+
+int Relocalizer::Verify(Frame* frame, const KeyFrame& kf, SolveCounts* solves) const {
+  const Matcher projection_matcher(sensor_, 0.9, true);
   // Inliers of the frame's current matches; non-inliers are dropped.
   auto optimize = [&]() {
     const int good = OptimizeFramePose(sensor_, frame, {}, solves);
@@ -146,15 +270,31 @@ KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves) const {
     }
     return good;
   };
-  auto found_ids = [&]() {
-    std::vector<MapPointId> ids;
-    for (MapPoint* p : frame->map_points) {
-      if (p != nullptr) ids.push_back(p->id());
+  int good = optimize();
+  if (good < options_.min_pose_inliers) return 0;
+  // Few inliers: more of the keyframe's points, by projection, in a coarse
+  // window, then (when close) in a narrow one.
+  if (good < options_.min_inliers) {
+    const int added = projection_matcher.SearchByProjection(frame, kf, MatchedIds(*frame), 10, 100);
+    if (added + good >= options_.min_inliers) {
+      good = optimize();
+      if (good > 30 && good < options_.min_inliers) {
+        const int more =
+            projection_matcher.SearchByProjection(frame, kf, MatchedIds(*frame), 3, 64);
+        if (good + more >= options_.min_inliers) good = optimize();
+      }
     }
-    std::sort(ids.begin(), ids.end());
-    return ids;
-  };
+  }
+  return good;
+}
 
+KeyFrame* Relocalizer::RelocalizeByBow(Frame* frame, SolveCounts* solves,
+                                       RelocalizationAttempt* attempt) {
+  const std::vector<KeyFrame*> candidates = database_.DetectRelocalizationCandidates(frame->bow());
+  attempt->bow_candidates = static_cast<int>(candidates.size());
+  const FrameFeatures& f = frame->features();
+  const Eigen::Matrix3d K = sensor_.camera.K();
+  const Matcher bow_matcher(sensor_, options_.bow_ratio, true);
   for (KeyFrame* kf : candidates) {
     if (kf->bad()) continue;
     std::vector<MapPoint*> matches;
@@ -176,32 +316,145 @@ KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves) const {
         SolvePnpRansac(points_world, pixels, sigma2, K, options_.ransac, frame->id() ^ kf->id());
     if (!pnp.ok) continue;
 
-    std::fill(frame->map_points.begin(), frame->map_points.end(), nullptr);
-    std::fill(frame->outlier.begin(), frame->outlier.end(), 0);
+    ClearMatches(frame);
     for (size_t j = 0; j < keypoint.size(); ++j) {
       if (pnp.inlier[j]) frame->map_points[keypoint[j]] = matches[keypoint[j]];
     }
     frame->SetPose(pnp.T_cam_world);
-    int good = optimize();
-    if (good < options_.min_pose_inliers) continue;
-
-    // Few inliers: more of the candidate's points, by projection, in a
-    // coarse window, then (when close) in a narrow one.
-    if (good < options_.min_inliers) {
-      const int added = projection_matcher.SearchByProjection(frame, *kf, found_ids(), 10, 100);
-      if (added + good >= options_.min_inliers) {
-        good = optimize();
-        if (good > 30 && good < options_.min_inliers) {
-          const int more = projection_matcher.SearchByProjection(frame, *kf, found_ids(), 3, 64);
-          if (good + more >= options_.min_inliers) good = optimize();
-        }
-      }
+    const int good = Verify(frame, *kf, solves);
+    if (good >= options_.min_inliers) {
+      attempt->inliers = good;
+      return kf;
     }
-    if (good >= options_.min_inliers) return kf;
   }
-  std::fill(frame->map_points.begin(), frame->map_points.end(), nullptr);
-  std::fill(frame->outlier.begin(), frame->outlier.end(), 0);
+  ClearMatches(frame);
   return nullptr;
+}
+
+std::vector<PoseCorrespondence> Relocalizer::DirectMatches(const Frame& frame,
+                                                           std::vector<MapPoint*>* points,
+                                                           std::vector<uint32_t>* keypoints) const {
+  const FrameFeatures& f = frame.features();
+  const DirectMatchOptions& o = options_.direct;
+  const std::vector<DescriptorNeighbours> nearest = index_.Search(f.descriptors);
+  struct Candidate {
+    double ratio;  // Nearest / second nearest distance (0: no second).
+    int distance;
+    uint32_t keypoint;
+    MapPoint* point;
+  };
+  std::vector<Candidate> candidates;
+  for (size_t i = 0; i < nearest.size(); ++i) {
+    const DescriptorNeighbours& n = nearest[i];
+    if (n.first == nullptr || n.first_distance > o.max_distance) continue;
+    double ratio = 0;
+    if (n.second != nullptr &&
+        (n.second->position_world() - n.first->position_world()).norm() > o.same_point_radius) {
+      ratio = static_cast<double>(n.first_distance) / std::max(1, n.second_distance);
+      if (ratio >= o.ratio) continue;
+    }
+    candidates.push_back({ratio, n.first_distance, static_cast<uint32_t>(i), n.first});
+  }
+  // One keypoint per point (the closest), then the most distinctive first.
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+    return std::tie(a.point, a.distance, a.keypoint) < std::tie(b.point, b.distance, b.keypoint);
+  });
+  candidates.erase(
+      std::unique(candidates.begin(), candidates.end(),
+                  [](const Candidate& a, const Candidate& b) { return a.point == b.point; }),
+      candidates.end());
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+    return std::tie(a.ratio, a.distance, a.keypoint) < std::tie(b.ratio, b.distance, b.keypoint);
+  });
+  if (candidates.size() > static_cast<size_t>(o.max_matches)) candidates.resize(o.max_matches);
+
+  std::vector<PoseCorrespondence> matches;
+  for (const Candidate& c : candidates) {
+    const Keypoint& kp = f.keypoints[c.keypoint];
+    PoseCorrespondence m;
+    m.point_world = c.point->position_world();
+    m.pixel = f.Pixel(c.keypoint);
+    m.octave = kp.octave;
+    if (f.HasDepth(c.keypoint)) {
+      m.u_right = f.u_right[c.keypoint];
+      m.depth = f.Depth(c.keypoint);
+    }
+    matches.push_back(m);
+    points->push_back(c.point);
+    keypoints->push_back(c.keypoint);
+  }
+  return matches;
+}
+
+KeyFrame* Relocalizer::RelocalizeDirect(Frame* frame, SolveCounts* solves,
+                                        RelocalizationAttempt* attempt) {
+  ClearMatches(frame);
+  attempt->index_ms = PrepareIndex();
+  std::vector<MapPoint*> points;
+  std::vector<uint32_t> keypoints;
+  const auto search_start = std::chrono::steady_clock::now();
+  const std::vector<PoseCorrespondence> matches = DirectMatches(*frame, &points, &keypoints);
+  const auto search_end = std::chrono::steady_clock::now();
+  attempt->direct_matches = static_cast<int>(matches.size());
+  const AbsolutePoseRansacOptions& ransac = options_.direct.ransac;
+  if (static_cast<int>(matches.size()) < ransac.min_inliers) return nullptr;
+
+  std::vector<uint8_t> inlier;
+  Rigid3d T;
+  const int with_depth = static_cast<int>(std::count_if(
+      matches.begin(), matches.end(), [](const PoseCorrespondence& m) { return m.depth > 0; }));
+  if (with_depth >= ransac.min_inliers) {
+    const AbsolutePoseResult r = SolveAbsolutePoseRansac(matches, sensor_, ransac, frame->id());
+    if (!r.ok) return nullptr;
+    inlier = r.inlier;
+    T = r.T_cam_world;
+  } else {
+    std::vector<Eigen::Vector3d> points_world;
+    std::vector<Eigen::Vector2d> pixels;
+    std::vector<double> sigma2;
+    for (const PoseCorrespondence& m : matches) {
+      points_world.push_back(m.point_world);
+      pixels.push_back(m.pixel);
+      sigma2.push_back(sensor_.pyramid.sigma2[m.octave]);
+    }
+    // A shortlist from the whole map holds more outliers than a keyframe's
+    // BoW matches: no minimum inlier ratio, the direct stage's iterations.
+    PnpRansacOptions pnp = options_.ransac;
+    pnp.min_inlier_ratio = 0;
+    pnp.min_inliers = ransac.min_inliers;
+    pnp.max_iterations = ransac.max_iterations;
+    const PnpResult r =
+        SolvePnpRansac(points_world, pixels, sigma2, sensor_.camera.K(), pnp, frame->id());
+    if (!r.ok) return nullptr;
+    inlier = r.inlier;
+    T = r.T_cam_world;
+  }
+  int ransac_inliers = 0;
+  for (size_t j = 0; j < keypoints.size(); ++j) {
+    if (inlier[j]) frame->map_points[keypoints[j]] = points[j];
+    ransac_inliers += inlier[j];
+  }
+  const auto ransac_end = std::chrono::steady_clock::now();
+  const auto ms = [](auto a, auto b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+  };
+  spdlog::debug(
+      "relocalization: frame {}: {} direct matches in {:.1f} ms, RANSAC {} inliers in {:.1f} ms",
+      frame->id(), matches.size(), ms(search_start, search_end), ransac_inliers,
+      ms(search_end, ransac_end));
+  frame->SetPose(T);
+  KeyFrame* kf = MostObservingKeyFrame(*frame);
+  if (kf == nullptr) {
+    ClearMatches(frame);
+    return nullptr;
+  }
+  const int good = Verify(frame, *kf, solves);
+  if (good < options_.min_inliers) {
+    ClearMatches(frame);
+    return nullptr;
+  }
+  attempt->inliers = good;
+  return kf;
 }
 
 }  // namespace rrslam

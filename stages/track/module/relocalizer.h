@@ -1,34 +1,57 @@
-// Relocalization (ORB-SLAM2's Tracking::Relocalization, written anew): finds
-// the pose of a frame that lost track, against the whole map.
+// Relocalization: finds the pose of a frame that lost track (or a cold start
+// on a loaded map) against the whole map, in up to two stages.
+//
+// The bag-of-words stage (ORB-SLAM2's Tracking::Relocalization, written anew):
 //  1. Candidates: the keyframe database's relocalization candidates for the
 //     frame's bag of words (shared words, covisibility-group scores).
 //  2. Per candidate: BoW matching of the frame's keypoints to the
 //     candidate's map points (ratio 0.75, rotation histogram); at least 15.
 //  3. PnP RANSAC on those 2D-3D matches (SolvePnpRansac below), then pose
 //     optimization; fewer than 10 inliers rejects the candidate.
-//  4. With fewer than 50 inliers, the candidate's other map points are
-//     projected with that pose and matched in a 10 px window (distance
-//     <= 100), the pose optimized again; between 30 and 50 inliers, once more
-//     in a 3 px window (distance <= 64). 50 inliers relocalize the frame.
+//  4. Verification: with fewer than 50 inliers, the candidate's other map
+//     points are projected with that pose and matched in a 10 px window
+//     (distance <= 100), the pose optimized again; between 30 and 50
+//     inliers, once more in a 3 px window (distance <= 64). 50 inliers
+//     relocalize the frame.
 // Candidates are tried in the database's order (by id); the first that
 // reaches 50 inliers wins. (ORB-SLAM2 interleaves 5 RANSAC iterations per
 // candidate in turns; running each candidate's RANSAC to its end instead
 // keeps batch runs bit-identical with a seeded generator and, since the
 // winner needs 50 inliers either way, finds the same poses.)
 //
+// The direct stage (not in ORB-SLAM2; after Active Search, Sattler et al.,
+// TPAMI 2017, with depth): where no keyframe shortlist reaches the view, the
+// frame's descriptors are matched to every map point's descriptor through an
+// LSH index (data/map_point_index.h): the nearest point within
+// `max_distance` bits that passes the ratio test against the second nearest
+// (a second nearest within `same_point_radius` of the first is the same
+// place seen twice and does not count), one keypoint per point, the most
+// distinctive `max_matches` kept. A RANSAC over these fits the pose from
+// three keypoints with depth (solve/absolute_pose_ransac.h), or by PnP
+// (SolvePnpRansac) when fewer than min_inliers have depth. The inliers then
+// go through the same verification as a BoW candidate's, against the
+// keyframe that observes most of them; 50 inliers relocalize the frame.
+//
+// `method` picks the stages: bow (ORB-SLAM2), direct, or bow+direct (the
+// direct stage when the BoW stage finds no pose).
+//
 // Thread-safety: the caller holds Map::mutex().
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "common/geometry.h"
 #include "stages/track/data/frame.h"
 #include "stages/track/data/keyframe.h"
 #include "stages/track/data/keyframe_database.h"
+#include "stages/track/data/map.h"
+#include "stages/track/data/map_point_index.h"
 #include "stages/track/data/sensor_model.h"
 #include "stages/track/optimize/optimizer.h"
+#include "stages/track/solve/absolute_pose_ransac.h"
 
 namespace rrslam {
 
@@ -65,32 +88,83 @@ PnpResult SolvePnpRansac(const std::vector<Eigen::Vector3d>& points_world,
                          const std::vector<double>& sigma2, const Eigen::Matrix3d& K,
                          const PnpRansacOptions& options, uint64_t seed);
 
+enum class RelocalizationMethod { kBow, kBowDirect, kDirect };
+// "bow", "bow+direct", "direct" (the --relocalization values).
+std::string ToString(RelocalizationMethod method);
+// False when `name` is none of them.
+bool ParseRelocalizationMethod(const std::string& name, RelocalizationMethod* method);
+
+struct DirectMatchOptions {
+  int max_distance = 50;            // Bits (ORB-SLAM2's TH_LOW).
+  double ratio = 0.8;               // Nearest / second nearest distance.
+  double same_point_radius = 0.05;  // Metres.
+  int max_matches = 400;            // The most distinctive, into the RANSAC.
+  AbsolutePoseRansacOptions ransac;
+  MapPointIndexOptions index;
+};
+
 struct RelocalizationOptions {
+  RelocalizationMethod method = RelocalizationMethod::kBowDirect;
   double bow_ratio = 0.75;
   int min_bow_matches = 15;
   int min_pose_inliers = 10;  // After the first pose optimization.
   int min_inliers = 50;       // To accept the pose.
   PnpRansacOptions ransac;
+  DirectMatchOptions direct;
+  // Names the first field out of range.
+  bool Check(std::string* why) const;
+};
+
+// What one attempt did (run.json's relocalization attempts).
+struct RelocalizationAttempt {
+  std::string stage;       // "bow" or "direct": the stage that found the pose; "" none.
+  int bow_candidates = 0;  // Keyframes the database proposed.
+  int direct_matches = 0;  // Correspondences into the direct stage's RANSAC.
+  int inliers = 0;         // Of the accepted pose, after verification.
+  double index_ms = 0;     // Rebuilding the map-point index, when this attempt did.
+  double ms = 0;           // The whole attempt (the tracker times it).
+  double timestamp = 0;    // The frame's (the tracker sets it).
 };
 
 class Relocalizer {
  public:
   // References must outlive the relocalizer.
-  Relocalizer(const SensorModel& sensor, const KeyFrameDatabase& database,
+  Relocalizer(const SensorModel& sensor, const KeyFrameDatabase& database, const Map& map,
               const RelocalizationOptions& options = {})
-      : sensor_(sensor), database_(database), options_(options) {}
+      : sensor_(sensor),
+        database_(database),
+        map_(map),
+        options_(options),
+        index_(options.direct.index) {}
 
-  // Tries to relocalize `frame` (its bag of words computed). On success sets
-  // its pose and its map points (inliers only) and returns the candidate
-  // keyframe that gave the pose; otherwise returns nullptr and leaves the
-  // frame's map points empty. `solves` (may be null) counts the pose
-  // optimizations.
-  KeyFrame* Relocalize(Frame* frame, SolveCounts* solves = nullptr) const;
+  // Tries to relocalize `frame` (its bag of words computed when the method
+  // has the BoW stage). On success sets its pose and its map points (inliers
+  // only) and returns the keyframe that gave the pose; otherwise returns
+  // nullptr and leaves the frame's map points empty. `solves` (may be null)
+  // counts the pose optimizations; `attempt` (may be null) says what
+  // happened (all but ms).
+  KeyFrame* Relocalize(Frame* frame, SolveCounts* solves = nullptr,
+                       RelocalizationAttempt* attempt = nullptr);
+  // Builds the direct stage's map-point index now (a map just loaded), unless
+  // the method has no direct stage or it is current; returns the ms it took.
+  double PrepareIndex();
 
  private:
+  KeyFrame* RelocalizeByBow(Frame* frame, SolveCounts* solves, RelocalizationAttempt* attempt);
+  KeyFrame* RelocalizeDirect(Frame* frame, SolveCounts* solves, RelocalizationAttempt* attempt);
+  // The frame's map points matched by the index, with their RANSAC inputs.
+  std::vector<PoseCorrespondence> DirectMatches(const Frame& frame, std::vector<MapPoint*>* points,
+                                                std::vector<uint32_t>* keypoints) const;
+  // A pose found from a frame's inlier matches (set with the pose), against
+  // `keyframe`: optimized, completed by projection; the inliers it ends with
+  // (0 when below min_pose_inliers after the first optimization).
+  int Verify(Frame* frame, const KeyFrame& keyframe, SolveCounts* solves) const;
+
   const SensorModel& sensor_;
   const KeyFrameDatabase& database_;
+  const Map& map_;
   RelocalizationOptions options_;
+  MapPointIndex index_;  // Rebuilt at the first direct attempt after the map changed.
 };
 
 }  // namespace rrslam

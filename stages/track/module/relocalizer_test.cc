@@ -131,28 +131,111 @@ class RelocalizerTest : public ::testing::Test {
   std::vector<KeyFrame*> keyframes_;
 };
 
+RelocalizationOptions WithMethod(RelocalizationMethod method) {
+  RelocalizationOptions options;
+  options.method = method;
+  return options;
+}
+
+const RelocalizationMethod kMethods[] = {
+    RelocalizationMethod::kBow, RelocalizationMethod::kBowDirect, RelocalizationMethod::kDirect};
+
 TEST_F(RelocalizerTest, FindsTheFramesPoseInTheMap) {
-  const Rigid3d T_true = SmallMotion(0.01, 0.03) * truth_[3];
+  for (RelocalizationMethod method : kMethods) {
+    SCOPED_TRACE(ToString(method));
+    const Rigid3d T_true = SmallMotion(0.01, 0.03) * truth_[3];
+    Frame frame = QueryFrame(scene_, T_true);
+    Relocalizer relocalizer(sensor_, database_, map_, WithMethod(method));
+    SolveCounts solves;
+    RelocalizationAttempt attempt;
+    KeyFrame* kf = relocalizer.Relocalize(&frame, &solves, &attempt);
+    ASSERT_NE(kf, nullptr);
+    EXPECT_LT(TranslationError(frame.T_cam_world(), T_true), 0.01);
+    EXPECT_LT(RotationAngle(frame.T_cam_world().rotation, T_true.rotation), 0.2 * M_PI / 180);
+    int matched = 0;
+    for (MapPoint* p : frame.map_points) matched += p != nullptr;
+    EXPECT_GE(matched, 50);
+    EXPECT_EQ(attempt.inliers, matched);
+    EXPECT_GT(solves.solves, 0u);
+    // bow+direct stops at the BoW stage when it finds the pose.
+    EXPECT_EQ(attempt.stage, method == RelocalizationMethod::kDirect ? "direct" : "bow");
+    EXPECT_EQ(attempt.direct_matches > 0, method == RelocalizationMethod::kDirect);
+  }
+}
+
+// With no keyframe on the shortlist (an empty database stands for a view the
+// bag of words does not reach), only the direct stage finds the pose.
+TEST_F(RelocalizerTest, TheDirectStageFindsWhatTheShortlistMisses) {
+  const KeyFrameDatabase empty(vocabulary_);
+  const Rigid3d T_true = SmallMotion(-0.01, 0.02) * truth_[2];
   Frame frame = QueryFrame(scene_, T_true);
-  const Relocalizer relocalizer(sensor_, database_);
-  SolveCounts solves;
-  KeyFrame* kf = relocalizer.Relocalize(&frame, &solves);
-  ASSERT_NE(kf, nullptr);
+  Relocalizer bow(sensor_, empty, map_, WithMethod(RelocalizationMethod::kBow));
+  RelocalizationAttempt attempt;
+  EXPECT_EQ(bow.Relocalize(&frame, nullptr, &attempt), nullptr);
+  EXPECT_EQ(attempt.stage, "");
+  EXPECT_EQ(attempt.bow_candidates, 0);
+
+  Relocalizer both(sensor_, empty, map_, WithMethod(RelocalizationMethod::kBowDirect));
+  ASSERT_NE(both.Relocalize(&frame, nullptr, &attempt), nullptr);
+  EXPECT_EQ(attempt.stage, "direct");
+  EXPECT_GE(attempt.direct_matches, 50);
+  EXPECT_GE(attempt.inliers, 50);
+  EXPECT_GT(attempt.index_ms, 0);
+  EXPECT_LT(TranslationError(frame.T_cam_world(), T_true), 0.01);
+
+  // The index is built once while the map stays as it is.
+  Frame again = QueryFrame(scene_, T_true);
+  ASSERT_NE(both.Relocalize(&again, nullptr, &attempt), nullptr);
+  EXPECT_EQ(attempt.index_ms, 0);
+}
+
+// A camera 30 degrees round the scene from every keyframe, looking at its
+// middle: the direct stage matches its points wherever they were seen from.
+TEST_F(RelocalizerTest, AViewThirtyDegreesFromEveryKeyFrame) {
+  const Eigen::Vector3d centre(0, 0, 3);
+  const Eigen::Matrix3d R_world_cam =
+      Eigen::AngleAxisd(-35 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Rigid3d T_world_cam(Eigen::Quaterniond(R_world_cam),
+                            centre - R_world_cam * Eigen::Vector3d(0, 0, 3));
+  const Rigid3d T_true = T_world_cam.Inverse();
+  for (const Rigid3d& T : truth_) {
+    ASSERT_GE(RotationAngle(T.rotation, T_true.rotation), 30 * M_PI / 180);
+  }
+  Frame frame = QueryFrame(scene_, T_true);
+  Relocalizer relocalizer(sensor_, database_, map_, WithMethod(RelocalizationMethod::kDirect));
+  ASSERT_NE(relocalizer.Relocalize(&frame), nullptr);
   EXPECT_LT(TranslationError(frame.T_cam_world(), T_true), 0.01);
   EXPECT_LT(RotationAngle(frame.T_cam_world().rotation, T_true.rotation), 0.2 * M_PI / 180);
-  int matched = 0;
-  for (MapPoint* p : frame.map_points) matched += p != nullptr;
-  EXPECT_GE(matched, 50);
-  EXPECT_GT(solves.solves, 0u);
 }
 
 TEST_F(RelocalizerTest, AFrameOfAnotherPlaceIsNotRelocalized) {
-  std::mt19937 other_rng(99);
-  const std::vector<testing::ScenePoint> elsewhere = RandomScene(400, other_rng, 2.0, 4.0);
-  Frame frame = QueryFrame(elsewhere, truth_[3]);
-  const Relocalizer relocalizer(sensor_, database_);
-  EXPECT_EQ(relocalizer.Relocalize(&frame), nullptr);
-  for (MapPoint* p : frame.map_points) EXPECT_EQ(p, nullptr);
+  for (RelocalizationMethod method : kMethods) {
+    SCOPED_TRACE(ToString(method));
+    std::mt19937 other_rng(99);
+    const std::vector<testing::ScenePoint> elsewhere = RandomScene(400, other_rng, 2.0, 4.0);
+    Frame frame = QueryFrame(elsewhere, truth_[3]);
+    Relocalizer relocalizer(sensor_, database_, map_, WithMethod(method));
+    RelocalizationAttempt attempt;
+    EXPECT_EQ(relocalizer.Relocalize(&frame, nullptr, &attempt), nullptr);
+    EXPECT_EQ(attempt.stage, "");
+    for (MapPoint* p : frame.map_points) EXPECT_EQ(p, nullptr);
+  }
+}
+
+TEST(RelocalizationOptionsTest, MethodNamesRoundTripAndBadOptionsAreNamed) {
+  for (RelocalizationMethod method : kMethods) {
+    RelocalizationMethod parsed = RelocalizationMethod::kBow;
+    ASSERT_TRUE(ParseRelocalizationMethod(ToString(method), &parsed));
+    EXPECT_EQ(parsed, method);
+  }
+  RelocalizationMethod parsed;
+  EXPECT_FALSE(ParseRelocalizationMethod("orb", &parsed));
+  std::string why;
+  EXPECT_TRUE(RelocalizationOptions{}.Check(&why));
+  RelocalizationOptions options;
+  options.direct.ratio = 1.5;
+  EXPECT_FALSE(options.Check(&why));
+  EXPECT_EQ(why, "direct.ratio = 1.500000; must be in (0, 1]");
 }
 
 }  // namespace

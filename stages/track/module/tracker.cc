@@ -18,6 +18,11 @@ bool TrackerOptions::Check(std::string* why) const {
       *why = "close_tracked = " + std::to_string(close_tracked) + "; must be >= 0";
     return false;
   }
+  std::string reason;
+  if (!relocalization.Check(&reason)) {
+    if (why != nullptr) *why = "relocalization." + reason;
+    return false;
+  }
   return true;
 }
 
@@ -29,7 +34,7 @@ Tracker::Tracker(const SensorModel& sensor, const Vocabulary& vocabulary, Map* m
       map_(map),
       mapper_(mapper),
       options_(options),
-      relocalizer_(sensor, database) {}
+      relocalizer_(sensor, database, *map, options.relocalization) {}
 
 bool Tracker::Track(Frame frame, bool* new_keyframe) {
   std::lock_guard<std::mutex> lock(map_->mutex());
@@ -136,6 +141,10 @@ void Tracker::Reset() {
 }
 
 void Tracker::StartOnLoadedMap() {
+  {
+    std::lock_guard<std::mutex> lock(map_->mutex());
+    relocalization_index_ms_ = relocalizer_.PrepareIndex();
+  }
   state_ = State::kLost;
   velocity_.reset();
   reference_keyframe_ = nullptr;
@@ -351,9 +360,15 @@ bool Tracker::TrackReferenceKeyFrame() {
 
 bool Tracker::Relocalize() {
   const auto start = SteadyClock::now();
-  current_.ComputeBow(vocabulary_, options_.bow_levels_up);
-  KeyFrame* keyframe = relocalizer_.Relocalize(&current_, &pose_solves_);
-  relocalization_ms_.push_back(MillisecondsSince(start));
+  if (options_.relocalization.method != RelocalizationMethod::kDirect) {
+    current_.ComputeBow(vocabulary_, options_.bow_levels_up);
+  }
+  RelocalizationAttempt attempt;
+  KeyFrame* keyframe = relocalizer_.Relocalize(&current_, &pose_solves_, &attempt);
+  attempt.ms = MillisecondsSince(start);
+  attempt.timestamp = current_.timestamp();
+  relocalization_ms_.push_back(attempt.ms);
+  relocalization_attempts_.push_back(attempt);
   if (keyframe == nullptr) return false;
   reference_keyframe_ = keyframe;
   relocalized_frame_id_ = current_.id();

@@ -104,6 +104,9 @@ struct TrackerOptions {
   // Points matched by the motion model in visual-odometry tracking (ORB-SLAM2: > 20).
   int vo_min_matches = 20;
 
+  // Relocalization's stages and thresholds (module/relocalizer.h).
+  RelocalizationOptions relocalization;
+
   // Names the first violated constraint ("close_tracked = -1; must be >= 0").
   bool Check(std::string* why) const;
 };
@@ -139,6 +142,10 @@ class Tracker {
   size_t relocalizations() const { return relocalizations_; }
   // Duration of every relocalization attempt (successful or not), ms.
   const std::vector<double>& relocalization_ms() const { return relocalization_ms_; }
+  // What every attempt did, in order.
+  const std::vector<RelocalizationAttempt>& relocalization_attempts() const {
+    return relocalization_attempts_;
+  }
   // True after a frame was lost with at most reset_max_keyframes keyframes in
   // the map. The caller then clears the mapper, the map and the keyframe
   // database and calls Reset() (ORB-SLAM2's System::Reset).
@@ -148,8 +155,10 @@ class Tracker {
   void Reset();
   // Starts on a map loaded from a file (the paper's start-up): the tracker is
   // lost, so the next frames relocalize in the map; it never resets the map.
-  // Call before the first Track().
+  // Call before the first Track(). Builds relocalization's map-point index
+  // (relocalization_index_ms() says how long that took).
   void StartOnLoadedMap();
+  double relocalization_index_ms() const { return relocalization_index_ms_; }
   // Localization only: the last frame was tracked as visual odometry.
   bool visual_odometry() const { return vo_; }
   // Frames tracked as visual odometry (localization only).
@@ -206,6 +215,8 @@ class Tracker {
   }
   size_t relocalizations_ = 0;
   std::vector<double> relocalization_ms_;
+  std::vector<RelocalizationAttempt> relocalization_attempts_;
+  double relocalization_index_ms_ = 0;
   Relocalizer relocalizer_;
   bool reset_requested_ = false;
   SolveCounts pose_solves_;

@@ -13,9 +13,11 @@ namespace rrslam {
 // Iterations that draw one all-inlier set of 3 with `probability` when a
 // fraction `inlier_ratio` of the data are inliers, at least 1 and at most
 // `max_iterations` (ORB-SLAM2 uses the cube for its PnP and Sim3 solvers
-// alike); 1 when every correspondence must be an inlier (ratio 1).
+// alike); 1 when every correspondence must be an inlier (ratio 1),
+// `max_iterations` when none is (ratio 0).
 inline int RansacIterations(double probability, double inlier_ratio, int max_iterations) {
   if (inlier_ratio >= 1) return 1;
+  if (!(inlier_ratio > 0)) return max_iterations;
   const double needed =
       std::ceil(std::log(1 - probability) / std::log(1 - std::pow(inlier_ratio, 3)));
   return std::max(1, std::min(static_cast<int>(needed), max_iterations));

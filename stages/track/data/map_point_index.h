@@ -1,0 +1,82 @@
+// Map points by descriptor: an index over the representative ORB descriptor
+// of every map point, for relocalization's direct 2D-3D matching
+// (module/relocalizer.h). FLANN's multi-probe LSH index for binary
+// descriptors (Hamming distance): `tables` hash tables, each keyed by
+// `key_bits` bits of the 256, and the buckets within `probe_level` bits of
+// the query's key searched too (Lv et al., VLDB 2007).
+//
+// The index is a snapshot: Build() takes the map's good points, and
+// IsCurrent() tells whether the map has created or removed points since
+// (points culled since are skipped at search time; a descriptor that changed
+// keeps its old value until the next build). The relocalizer rebuilds it at
+// the first attempt after a change; a loaded map in localization-only mode
+// builds it once.
+//
+// Thread-safety: none of its own; build and search under Map::mutex().
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/orb_descriptor.h"
+
+namespace rrslam {
+
+class Map;
+class MapPoint;
+
+struct MapPointIndexOptions {
+  // FLANN's LshIndexParams() defaults (OpenCV's FLANN users pick the same),
+  // but one probe level where FLANN has 2: on the kitchen map (5.6k points,
+  // 1000 keypoints a frame) level 2 found 1.9x the matches in 4x the time
+  // (48-62 ms a frame against 12-14 ms), and level 1 relocalized the same
+  // frames (docs/track.md, "Direct relocalization").
+  int tables = 12;
+  int key_bits = 20;
+  int probe_level = 1;
+  // False, with the reason in `why`, when a field is out of range.
+  bool Check(std::string* why) const;
+};
+
+// The two nearest indexed points of one query descriptor.
+struct DescriptorNeighbours {
+  MapPoint* first = nullptr;   // nullptr: nothing found.
+  MapPoint* second = nullptr;  // nullptr: only one found.
+  int first_distance = 256;    // Hamming distances, bits.
+  int second_distance = 256;
+};
+
+class MapPointIndex {
+ public:
+  explicit MapPointIndex(const MapPointIndexOptions& options = {});
+  ~MapPointIndex();
+  MapPointIndex(MapPointIndex&&) noexcept;
+  MapPointIndex& operator=(MapPointIndex&&) noexcept;
+
+  // Indexes every good point of `map` (its descriptor as it is now).
+  void Build(const Map& map);
+  // Indexes `points` (tests; bad points are skipped).
+  void Build(const std::vector<MapPoint*>& points);
+  // Whether `map` has the points it had at the last Build(map).
+  bool IsCurrent(const Map& map) const;
+  size_t size() const { return points_.size(); }
+
+  // The two nearest indexed points of each of `queries` (approximate: LSH
+  // may miss the true nearest). Points culled since the build are skipped.
+  std::vector<DescriptorNeighbours> Search(const std::vector<OrbDescriptor>& queries) const;
+
+ private:
+  struct Flann;
+  MapPointIndexOptions options_;
+  std::vector<MapPoint*> points_;
+  std::vector<OrbDescriptor> descriptors_;  // Rows of the FLANN matrix.
+  std::unique_ptr<Flann> flann_;
+  // The map's state at the last build: points created and points in the map.
+  size_t built_created_ = 0;
+  size_t built_count_ = 0;
+  bool built_from_map_ = false;
+};
+
+}  // namespace rrslam

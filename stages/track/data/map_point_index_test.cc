@@ -1,0 +1,104 @@
+#include "stages/track/data/map_point_index.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "stages/track/data/map.h"
+#include "stages/track/test_scene.h"
+
+namespace rrslam {
+namespace {
+
+using testing::FlipBits;
+using testing::RandomDescriptor;
+
+// A map of `n` points with random descriptors.
+std::vector<MapPoint*> RandomPoints(Map* map, int n, std::mt19937& rng) {
+  std::vector<MapPoint*> points;
+  for (int i = 0; i < n; ++i) {
+    MapPoint* p = map->CreateMapPoint(Eigen::Vector3d(i, 0, 1), nullptr);
+    p->SetDescriptor(RandomDescriptor(rng));
+    map->AddMapPoint(p);
+    points.push_back(p);
+  }
+  return points;
+}
+
+// The recall goal: a known descriptor among 100k, its copy with 10
+// of 256 bits flipped (a good ORB match is within 50) found as the nearest
+// at least 95% of the time.
+TEST(MapPointIndexTest, FindsAKnownDescriptorAmongAHundredThousand) {
+  std::mt19937 rng(3);
+  Map map;
+  const std::vector<MapPoint*> points = RandomPoints(&map, 100000, rng);
+  MapPointIndex index;
+  index.Build(map);
+  EXPECT_EQ(index.size(), points.size());
+  EXPECT_TRUE(index.IsCurrent(map));
+
+  std::vector<OrbDescriptor> queries;
+  std::vector<MapPoint*> truth;
+  std::uniform_int_distribution<size_t> pick(0, points.size() - 1);
+  for (int q = 0; q < 1000; ++q) {
+    MapPoint* p = points[pick(rng)];
+    queries.push_back(FlipBits(p->descriptor(), 10, rng));
+    truth.push_back(p);
+  }
+  const std::vector<DescriptorNeighbours> found = index.Search(queries);
+  ASSERT_EQ(found.size(), queries.size());
+  int hits = 0;
+  for (size_t q = 0; q < found.size(); ++q) {
+    if (found[q].first != truth[q]) continue;
+    ++hits;
+    EXPECT_EQ(found[q].first_distance, 10);
+    // A random descriptor is ~128 bits away.
+    if (found[q].second != nullptr) {
+      EXPECT_GT(found[q].second_distance, 60);
+    }
+  }
+  EXPECT_GE(hits, 950) << "recall " << hits / 10.0 << "%";
+}
+
+TEST(MapPointIndexTest, SkipsCulledPointsAndKnowsWhenTheMapChanged) {
+  std::mt19937 rng(5);
+  Map map;
+  const std::vector<MapPoint*> points = RandomPoints(&map, 50, rng);
+  MapPointIndex index;
+  index.Build(map);
+  const std::vector<OrbDescriptor> query = {points[7]->descriptor()};
+  EXPECT_EQ(index.Search(query).front().first, points[7]);
+  EXPECT_EQ(index.Search(query).front().first_distance, 0);
+
+  map.CullMapPoint(points[7]);
+  EXPECT_FALSE(index.IsCurrent(map));
+  EXPECT_NE(index.Search(query).front().first, points[7]);
+  index.Build(map);
+  EXPECT_TRUE(index.IsCurrent(map));
+  EXPECT_EQ(index.size(), 49u);
+
+  RandomPoints(&map, 1, rng);
+  EXPECT_FALSE(index.IsCurrent(map));
+}
+
+TEST(MapPointIndexTest, AnEmptyIndexFindsNothing) {
+  Map map;
+  MapPointIndex index;
+  index.Build(map);
+  std::mt19937 rng(1);
+  const std::vector<DescriptorNeighbours> found = index.Search({RandomDescriptor(rng)});
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found.front().first, nullptr);
+}
+
+TEST(MapPointIndexTest, OptionsOutOfRangeAreNamed) {
+  std::string why;
+  EXPECT_TRUE(MapPointIndexOptions{}.Check(&why));
+  MapPointIndexOptions o;
+  o.key_bits = 40;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_EQ(why, "key_bits = 40; must be in [1, 32]");
+}
+
+}  // namespace
+}  // namespace rrslam
