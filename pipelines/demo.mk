@@ -31,7 +31,7 @@ demo-tools:
 	  "on a fresh Debian 12 machine, nothing when they are there)"
 	@$(MAKE) --no-print-directory deps-build
 	@echo "demo: 2/3 building the $(words $(DEMO_TOOLS)) tools the demo runs into $(BIN)/" \
-	  "(about DEMO_BUILD_MINUTES min on 2 cores without ccache; seconds when built)"
+	  "(about 4 min on 2 cores without ccache; seconds when built)"
 	@$(MAKE) --no-print-directory configure
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target $(DEMO_TOOLS)
 	@echo "demo: 3/3 running: synthetic room -> vocabulary -> tracking -> evaluation -> pictures" \
