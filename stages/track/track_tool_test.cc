@@ -377,7 +377,8 @@ TEST(TrackHelp, DefaultsAreTheOptionsStructs) {
   const auto r = RunTool("track", "--help");
   ASSERT_EQ(r.exit_code, 0);
   const nlohmann::json defaults = TrackOptions{}.ToJson();
-  const std::regex option(R"(^\s+--([a-z-]+) [A-Z]+=(\S+))");
+  // "--close-tracked INT=300", "--relocalization TEXT:{bow,bow+direct,direct}=bow+direct".
+  const std::regex option(R"(^\s+--([a-z-]+) [A-Z]+(?::\{[^}]*\})?=(\S+))");
   std::istringstream lines(r.output);
   std::string line;
   int compared = 0;
@@ -404,6 +405,9 @@ TEST(TrackHelp, DefaultsAreTheOptionsStructs) {
   // The nested modules' defaults are the tool's.
   EXPECT_EQ(defaults["close_tracked"], TrackerOptions{}.close_tracked);
   EXPECT_EQ(defaults["changed_point_views"], LocalMapperOptions{}.changed_point_min_views);
+  EXPECT_EQ(defaults["relocalization"], ToString(TrackerOptions{}.relocalization.method));
+  EXPECT_NE(r.output.find("--relocalization TEXT:{bow,bow+direct,direct}=bow+direct"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -177,5 +177,35 @@ TEST_F(TrackerSceneTest, LocalizationOnlyLeavesTheMapAsItIs) {
   EXPECT_TRUE(testing::MapIsConsistent(map_));
 }
 
+// The local-map search on its own: a cold start relocalizes against one
+// keyframe, then the search by projection in the local map (the keyframes
+// sharing points with the frame and their neighbours) adds the points that
+// keyframe does not observe, each matched where it projects.
+TEST_F(TrackerSceneTest, LocalMapSearchAddsPointsBeyondTheRelocalizationKeyFrame) {
+  MakeTracker({});
+  for (int t = 0; t < 30; ++t) ASSERT_TRUE(TrackAt(PathPose(t))) << t;
+  ASSERT_GE(map_.num_keyframes(), 3u);
+  TrackerOptions o;
+  o.localization_only = true;
+  MakeTracker(o);
+  tracker_->StartOnLoadedMap();
+  const Rigid3d T_true = PathPose(17);
+  ASSERT_TRUE(TrackAt(T_true));
+  const Frame& frame = tracker_->last_frame();
+  const KeyFrame* reference = frame.reference_keyframe;
+  ASSERT_NE(reference, nullptr);
+  int matched = 0, beyond_reference = 0;
+  for (size_t i = 0; i < frame.size(); ++i) {
+    const MapPoint* p = frame.map_points[i];
+    if (p == nullptr || frame.outlier[i]) continue;
+    ++matched;
+    beyond_reference += !p->IsObservedBy(reference);
+    const Eigen::Vector2d predicted = sensor_.Project(T_true * p->position_world());
+    EXPECT_LT((predicted - frame.features().Pixel(i)).norm(), 3.0) << "keypoint " << i;
+  }
+  EXPECT_GE(matched, 50);
+  EXPECT_GT(beyond_reference, 0) << matched << " matched, all seen by the reference keyframe";
+}
+
 }  // namespace
 }  // namespace rrslam
