@@ -33,8 +33,12 @@ endif()
 # rrslam_add_fuzzers(<target> SOURCES <library sources...> FUZZERS <fuzzer sources...>
 #                    [INCLUDES <dirs...>] [LIBS <libs...>])
 # Compiles every source (paths relative to the source root) with the fuzzer
-# flags into fuzz/<target>_obj/, and links each fuzzer source with all the
-# library sources into fuzz/<fuzzer name>. Custom target <target>.
+# flags into fuzz/obj/<flags hash>/<source>.o, and links each fuzzer source
+# with all the library sources into fuzz/<fuzzer name>. Custom target
+# <target>. A source that several groups compile with the same flags (the
+# common/ readers: 7 groups) is compiled once, by the first group that names
+# it, and the others depend on that group: the groups' compiles were a third
+# of `make test`'s compiler time (bench/results/test-fresh-2026-12-03.txt).
 # The libraries rrslam's own code calls (OpenCV, HDF5, libpng, ...) are the
 # system's, not instrumented: LIBS names them as CMake targets (their file is
 # linked and their include directories added: opencv_core, PNG::PNG, an
@@ -50,7 +54,14 @@ function(rrslam_add_fuzzers target)
     add_dependencies(fuzzers ${target})
     return()
   endif()
-  set(include_dirs ${ARG_INCLUDES})
+  # Every group compiles with the same include directories (those of Eigen,
+  # OpenCV and HDF5 first, then its own), so that groups share objects.
+  set(include_dirs ${HDF5_INCLUDE_DIRS})
+  foreach(lib Eigen3::Eigen opencv_core)
+    get_target_property(dirs ${lib} INTERFACE_INCLUDE_DIRECTORIES)
+    list(APPEND include_dirs ${dirs})
+  endforeach()
+  list(APPEND include_dirs ${ARG_INCLUDES})
   set(link_items "")
   foreach(lib ${ARG_LIBS})
     if(TARGET ${lib})
@@ -76,36 +87,53 @@ function(rrslam_add_fuzzers target)
   endforeach()
   set(flags -std=c++20 -g -O1 -mpopcnt -fsanitize=fuzzer-no-link,address,undefined
       -fno-sanitize-recover=undefined ${include_flags})
-  set(obj_dir ${RRSLAM_FUZZ_DIR}/${target}_obj)
+  string(MD5 flags_hash "${flags}")
+  string(SUBSTRING ${flags_hash} 0 12 flags_hash)
   set(library_objects "")
   set(outputs "")
+  set(owners "")  # Groups that compile objects this one links.
   foreach(source ${ARG_SOURCES} ${ARG_FUZZERS})
-    get_filename_component(base ${source} NAME_WE)
-    set(object ${obj_dir}/${base}.o)
-    add_custom_command(OUTPUT ${object}
-      COMMAND ${CMAKE_COMMAND} -E make_directory ${obj_dir}
-      COMMAND ${RRSLAM_CLANGXX} ${flags} -MD -MF ${object}.d -c ${CMAKE_SOURCE_DIR}/${source}
-              -o ${object}
-      DEPENDS ${CMAKE_SOURCE_DIR}/${source}
-      DEPFILE ${object}.d
-      COMMENT "clang++ (libFuzzer) ${source}"
-      VERBATIM)
+    string(REGEX REPLACE "\\.[^.]*$" ".o" object_name ${source})
+    set(object ${RRSLAM_FUZZ_DIR}/obj/${flags_hash}/${object_name})
+    string(MD5 key ${object})
+    get_property(owner GLOBAL PROPERTY RRSLAM_FUZZ_OBJECT_${key})
+    if(owner)
+      list(APPEND owners ${owner})
+    else()
+      get_filename_component(obj_dir ${object} DIRECTORY)
+      add_custom_command(OUTPUT ${object}
+        COMMAND ${CMAKE_COMMAND} -E make_directory ${obj_dir}
+        COMMAND ${RRSLAM_CLANGXX} ${flags} -MD -MF ${object}.d -c ${CMAKE_SOURCE_DIR}/${source}
+                -o ${object}
+        DEPENDS ${CMAKE_SOURCE_DIR}/${source}
+        DEPFILE ${object}.d
+        COMMENT "clang++ (libFuzzer) ${source}"
+        VERBATIM)
+      set_property(GLOBAL PROPERTY RRSLAM_FUZZ_OBJECT_${key} ${target})
+    endif()
     if(source IN_LIST ARG_SOURCES)
       list(APPEND library_objects ${object})
     endif()
   endforeach()
   foreach(source ${ARG_FUZZERS})
     get_filename_component(base ${source} NAME_WE)
+    string(REGEX REPLACE "\\.[^.]*$" ".o" object_name ${source})
+    set(fuzzer_object ${RRSLAM_FUZZ_DIR}/obj/${flags_hash}/${object_name})
     add_custom_command(OUTPUT ${RRSLAM_FUZZ_DIR}/${base}
-      COMMAND ${RRSLAM_CLANGXX} -fsanitize=fuzzer,address,undefined ${obj_dir}/${base}.o
+      COMMAND ${RRSLAM_CLANGXX} -fsanitize=fuzzer,address,undefined ${fuzzer_object}
               ${library_objects} ${link_items} -lxxhash -pthread -o ${RRSLAM_FUZZ_DIR}/${base}
-      DEPENDS ${obj_dir}/${base}.o ${library_objects}
+      DEPENDS ${fuzzer_object} ${library_objects}
       COMMENT "clang++ (libFuzzer) link ${base}"
       VERBATIM)
     list(APPEND outputs ${RRSLAM_FUZZ_DIR}/${base})
   endforeach()
   add_custom_target(${target} ALL DEPENDS ${outputs})
   add_dependencies(fuzzers ${target})
+  list(REMOVE_DUPLICATES owners)
+  list(REMOVE_ITEM owners ${target})
+  if(owners)
+    add_dependencies(${target} ${owners})
+  endif()
 endfunction()
 
 # rrslam_add_fuzz_test(<module> <fuzzer name> <seed dir>)
