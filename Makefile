@@ -115,7 +115,8 @@ ASAN_READERS_TARGETS := common-tests extract-tests cluster-tests vocab-tests map
 ASAN_READERS_TESTS := ^(common|extract|cluster|vocab|mapstore|eval)/
 
 build-tsan/CMakeCache.txt build-asan/CMakeCache.txt: build-%/CMakeCache.txt: | deps
-	cmake -S . -B build-$* -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) -DRRSLAM_DATA_DIR=$(SHARED_DATA) \
+	cmake -S . -B build-$* -G "$(CMAKE_GENERATOR)" -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) \
+	  -DRRSLAM_DATA_DIR=$(SHARED_DATA) \
 	  -DRRSLAM_SANITIZE=$(if $(filter tsan,$*),thread,address)
 
 test-tsan test-asan: test-%: build-%/CMakeCache.txt
