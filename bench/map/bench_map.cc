@@ -219,12 +219,10 @@ struct RelocalizationSweep {
   std::vector<ColdStart> starts;
 };
 
-// The ground truth's orientation of each pose of `est` (aligned) and the
-// estimate's, at the stamps they pair at.
+// The ground truth's orientation and the aligned estimate's at each pair of
+// an ATE result `r` of `gt`.
 std::vector<std::pair<Eigen::Quaterniond, Eigen::Quaterniond>> PairedRotations(
-    const rrslam::Trajectory& gt, const rrslam::Trajectory& est,
-    const rrslam::AteAlignment& alignment) {
-  const rrslam::AteResult r = rrslam::EvaluateAte(gt, est, alignment);
+    const rrslam::Trajectory& gt, const rrslam::AteResult& r) {
   std::map<double, Eigen::Quaterniond> gt_at, est_at;
   for (const rrslam::StampedPose& g : gt) gt_at[g.timestamp] = g.T_world_cam.rotation;
   for (const rrslam::StampedPose& e : r.est_aligned) est_at[e.timestamp] = e.T_world_cam.rotation;
@@ -243,7 +241,7 @@ Eigen::Quaterniond MeanRotationOffset(const rrslam::Trajectory& gt,
                                       const rrslam::Trajectory& mapping,
                                       const rrslam::AteAlignment& alignment) {
   Eigen::Vector4d sum = Eigen::Vector4d::Zero();
-  for (const auto& [g, e] : PairedRotations(gt, mapping, alignment)) {
+  for (const auto& [g, e] : PairedRotations(gt, rrslam::EvaluateAte(gt, mapping, alignment))) {
     Eigen::Quaterniond d = g.conjugate() * e;
     if (d.w() < 0) d.coeffs() = -d.coeffs();
     sum += d.coeffs();
@@ -258,9 +256,8 @@ std::pair<double, double> PoseError(const rrslam::Trajectory& gt, double timesta
                                     const rrslam::Rigid3d& T_world_cam,
                                     const rrslam::AteAlignment& alignment,
                                     const Eigen::Quaterniond& offset) {
-  const rrslam::Trajectory pose = {{timestamp, T_world_cam}};
-  const rrslam::AteResult r = rrslam::EvaluateAte(gt, pose, alignment);
-  const auto [g, e] = PairedRotations(gt, pose, alignment).front();
+  const rrslam::AteResult r = rrslam::EvaluateAte(gt, {{timestamp, T_world_cam}}, alignment);
+  const auto [g, e] = PairedRotations(gt, r).front();
   return {100 * r.error.rmse, rrslam::RotationAngle(g * offset, e) * 180 / M_PI};
 }
 
@@ -488,7 +485,7 @@ void BindOptions(CLI::App* app, Options* o) {
            rrslam::ParseRelocalizationMethod(name, &o->relocalization);
          },
          "Relocalization stages of the cold starts (rrslam-track's --relocalization)")
-      ->check(CLI::IsMember({"bow", "bow+direct", "direct"}))
+      ->check(CLI::IsMember(rrslam::RelocalizationMethodNames()))
       ->default_str(rrslam::ToString(o->relocalization));
   app->add_option("--foreign", o->foreign,
                   "A sequence of another scene: each frame a cold start on every map, none may "

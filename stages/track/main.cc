@@ -100,7 +100,7 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
          "Relocalization stages: bow (ORB-SLAM2: keyframe shortlist by bag of words), direct "
          "(frame descriptors against every map point) or bow+direct (direct when bow finds no "
          "pose)")
-      ->check(CLI::IsMember({"bow", "bow+direct", "direct"}))
+      ->check(CLI::IsMember(rrslam::RelocalizationMethodNames()))
       ->default_str(rrslam::ToString(o->tracker.relocalization.method));
   app.add_flag("--expand-all-local-keyframes", o->tracker.expand_all_local_keyframes,
                "Local map: neighbours of every observing keyframe (ORB-SLAM2 stops at the "

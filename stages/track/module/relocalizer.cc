@@ -3,7 +3,6 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <map>
 #include <opencv2/calib3d.hpp>
@@ -11,6 +10,7 @@
 #include <random>
 #include <tuple>
 
+#include "common/clock.h"
 #include "stages/track/match/matcher.h"
 #include "stages/track/solve/ransac.h"
 
@@ -144,9 +144,19 @@ std::string ToString(RelocalizationMethod method) {
   return "bow";
 }
 
+namespace {
+constexpr RelocalizationMethod kMethods[] = {
+    RelocalizationMethod::kBow, RelocalizationMethod::kBowDirect, RelocalizationMethod::kDirect};
+}  // namespace
+
+std::vector<std::string> RelocalizationMethodNames() {
+  std::vector<std::string> names;
+  for (RelocalizationMethod m : kMethods) names.push_back(ToString(m));
+  return names;
+}
+
 bool ParseRelocalizationMethod(const std::string& name, RelocalizationMethod* method) {
-  for (RelocalizationMethod m : {RelocalizationMethod::kBow, RelocalizationMethod::kBowDirect,
-                                 RelocalizationMethod::kDirect}) {
+  for (RelocalizationMethod m : kMethods) {
     if (name == ToString(m)) {
       *method = m;
       return true;
@@ -229,10 +239,9 @@ KeyFrame* MostObservingKeyFrame(const Frame& frame) {
 
 double Relocalizer::PrepareIndex() {
   if (options_.method == RelocalizationMethod::kBow || index_.IsCurrent(map_)) return 0;
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   index_.Build(map_);
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
+  return MillisecondsSince(start);
 }
 
 KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves,
@@ -386,62 +395,60 @@ std::vector<PoseCorrespondence> Relocalizer::DirectMatches(const Frame& frame,
   return matches;
 }
 
+bool Relocalizer::SolveDirectPose(const std::vector<PoseCorrespondence>& matches, uint64_t seed,
+                                  std::vector<uint8_t>* inlier, Rigid3d* T) const {
+  const AbsolutePoseRansacOptions& ransac = options_.direct.ransac;
+  if (static_cast<int>(matches.size()) < ransac.min_inliers) return false;
+  const int with_depth = static_cast<int>(std::count_if(
+      matches.begin(), matches.end(), [](const PoseCorrespondence& m) { return m.depth > 0; }));
+  if (with_depth >= ransac.min_inliers) {
+    AbsolutePoseResult r = SolveAbsolutePoseRansac(matches, sensor_, ransac, seed);
+    *inlier = std::move(r.inlier);
+    *T = r.T_cam_world;
+    return r.ok;
+  }
+  std::vector<Eigen::Vector3d> points_world;
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<double> sigma2;
+  for (const PoseCorrespondence& m : matches) {
+    points_world.push_back(m.point_world);
+    pixels.push_back(m.pixel);
+    sigma2.push_back(sensor_.pyramid.sigma2[m.octave]);
+  }
+  // A shortlist from the whole map holds more outliers than a keyframe's
+  // BoW matches: no minimum inlier ratio, the direct stage's iterations.
+  PnpRansacOptions pnp = options_.ransac;
+  pnp.min_inlier_ratio = 0;
+  pnp.min_inliers = ransac.min_inliers;
+  pnp.max_iterations = ransac.max_iterations;
+  PnpResult r = SolvePnpRansac(points_world, pixels, sigma2, sensor_.camera.K(), pnp, seed);
+  *inlier = std::move(r.inlier);
+  *T = r.T_cam_world;
+  return r.ok;
+}
+
 KeyFrame* Relocalizer::RelocalizeDirect(Frame* frame, SolveCounts* solves,
                                         RelocalizationAttempt* attempt) {
   ClearMatches(frame);
   attempt->index_ms = PrepareIndex();
   std::vector<MapPoint*> points;
   std::vector<uint32_t> keypoints;
-  const auto search_start = std::chrono::steady_clock::now();
+  const auto search_start = SteadyClock::now();
   const std::vector<PoseCorrespondence> matches = DirectMatches(*frame, &points, &keypoints);
-  const auto search_end = std::chrono::steady_clock::now();
+  const double search_ms = MillisecondsSince(search_start);
   attempt->direct_matches = static_cast<int>(matches.size());
-  const AbsolutePoseRansacOptions& ransac = options_.direct.ransac;
-  if (static_cast<int>(matches.size()) < ransac.min_inliers) return nullptr;
-
+  const auto ransac_start = SteadyClock::now();
   std::vector<uint8_t> inlier;
   Rigid3d T;
-  const int with_depth = static_cast<int>(std::count_if(
-      matches.begin(), matches.end(), [](const PoseCorrespondence& m) { return m.depth > 0; }));
-  if (with_depth >= ransac.min_inliers) {
-    const AbsolutePoseResult r = SolveAbsolutePoseRansac(matches, sensor_, ransac, frame->id());
-    if (!r.ok) return nullptr;
-    inlier = r.inlier;
-    T = r.T_cam_world;
-  } else {
-    std::vector<Eigen::Vector3d> points_world;
-    std::vector<Eigen::Vector2d> pixels;
-    std::vector<double> sigma2;
-    for (const PoseCorrespondence& m : matches) {
-      points_world.push_back(m.point_world);
-      pixels.push_back(m.pixel);
-      sigma2.push_back(sensor_.pyramid.sigma2[m.octave]);
-    }
-    // A shortlist from the whole map holds more outliers than a keyframe's
-    // BoW matches: no minimum inlier ratio, the direct stage's iterations.
-    PnpRansacOptions pnp = options_.ransac;
-    pnp.min_inlier_ratio = 0;
-    pnp.min_inliers = ransac.min_inliers;
-    pnp.max_iterations = ransac.max_iterations;
-    const PnpResult r =
-        SolvePnpRansac(points_world, pixels, sigma2, sensor_.camera.K(), pnp, frame->id());
-    if (!r.ok) return nullptr;
-    inlier = r.inlier;
-    T = r.T_cam_world;
-  }
+  if (!SolveDirectPose(matches, frame->id(), &inlier, &T)) return nullptr;
   int ransac_inliers = 0;
   for (size_t j = 0; j < keypoints.size(); ++j) {
     if (inlier[j]) frame->map_points[keypoints[j]] = points[j];
     ransac_inliers += inlier[j];
   }
-  const auto ransac_end = std::chrono::steady_clock::now();
-  const auto ms = [](auto a, auto b) {
-    return std::chrono::duration<double, std::milli>(b - a).count();
-  };
   spdlog::debug(
       "relocalization: frame {}: {} direct matches in {:.1f} ms, RANSAC {} inliers in {:.1f} ms",
-      frame->id(), matches.size(), ms(search_start, search_end), ransac_inliers,
-      ms(search_end, ransac_end));
+      frame->id(), matches.size(), search_ms, ransac_inliers, MillisecondsSince(ransac_start));
   frame->SetPose(T);
   KeyFrame* kf = MostObservingKeyFrame(*frame);
   if (kf == nullptr) {

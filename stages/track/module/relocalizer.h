@@ -91,6 +91,8 @@ PnpResult SolvePnpRansac(const std::vector<Eigen::Vector3d>& points_world,
 enum class RelocalizationMethod { kBow, kBowDirect, kDirect };
 // "bow", "bow+direct", "direct" (the --relocalization values).
 std::string ToString(RelocalizationMethod method);
+// The three names, in that order.
+std::vector<std::string> RelocalizationMethodNames();
 // False when `name` is none of them.
 bool ParseRelocalizationMethod(const std::string& name, RelocalizationMethod* method);
 
@@ -155,6 +157,10 @@ class Relocalizer {
   // The frame's map points matched by the index, with their RANSAC inputs.
   std::vector<PoseCorrespondence> DirectMatches(const Frame& frame, std::vector<MapPoint*>* points,
                                                 std::vector<uint32_t>* keypoints) const;
+  // The direct stage's pose from `matches`: the 3D-3D RANSAC, or PnP when
+  // fewer than min_inliers matches have depth; false when neither finds one.
+  bool SolveDirectPose(const std::vector<PoseCorrespondence>& matches, uint64_t seed,
+                       std::vector<uint8_t>* inlier, Rigid3d* T) const;
   // A pose found from a frame's inlier matches (set with the pose), against
   // `keyframe`: optimized, completed by projection; the inliers it ends with
   // (0 when below min_pose_inliers after the first optimization).
