@@ -219,6 +219,54 @@ TEST_F(MapPipelineTest, RestoreMappingReplacesAMovedBox) {
   EXPECT_GE(old_place_removed, 0.6 * static_cast<double>(removed.size()));
 }
 
+// Issue 34: a cold start from a view that no mapped frame shares. Frame 32
+// of the same room's `rotation` trajectory looks over 40 degrees away from
+// every frame of the mapped loop; localization only relocalizes it at once
+// (the direct stage: the bag-of-words shortlist alone finds no pose there)
+// and the pose is the ground truth's in the map's frame (the loop's first
+// camera) within the map's own accuracy.
+TEST_F(MapPipelineTest, ColdStartFromAViewFortyDegreesFromEveryMappedFrame) {
+  constexpr int kStart = 32;
+  const fs::path turn = path("rotation");
+  const auto synth = testing::RunTool(
+      "synth", "--quiet --out " + Quote(turn) +
+                   " --width 320 --height 240 --trajectory rotation --frames 120 --seed 3");
+  ASSERT_EQ(synth.exit_code, 0) << synth.output;
+  const Trajectory loop = ReadTumTrajectory(seq() / "groundtruth.txt");
+  const Trajectory views = ReadTumTrajectory(turn / "groundtruth.txt");
+  ASSERT_GT(views.size(), static_cast<size_t>(kStart));
+  const StampedPose& view = views[kStart];
+  // Optical axes' angle to every mapped frame.
+  const Eigen::Vector3d axis = view.T_world_cam.rotation * Eigen::Vector3d::UnitZ();
+  double nearest = M_PI;
+  for (const StampedPose& p : loop) {
+    const Eigen::Vector3d a = p.T_world_cam.rotation * Eigen::Vector3d::UnitZ();
+    nearest = std::min(nearest, std::acos(std::clamp(axis.dot(a), -1.0, 1.0)));
+  }
+  ASSERT_GT(nearest * 180 / M_PI, 40.0);
+
+  const fs::path out = path("cold-start-40");
+  const auto r = testing::RunTool(
+      "track",
+      "--quiet --sequence " + Quote(turn) + " --settings " + Quote(turn / "settings.yaml") +
+          " --vocab " + Quote(vocab()) + " --out " + Quote(out) + " --load-map " + Quote(map()) +
+          " --localization-only --first-frame " + std::to_string(kStart) + " --max-frames 2");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json run = ReadJson(out / "run.json");
+  EXPECT_EQ(run.at("startup").at("first_pose_frame").get<int>(), kStart);
+  const nlohmann::json& attempt = run.at("relocalization_attempts").at(0);
+  EXPECT_FALSE(attempt.at("stage").get<std::string>().empty()) << attempt.dump();
+  EXPECT_GE(attempt.at("inliers").get<int>(), 50) << attempt.dump();
+
+  const Trajectory localized = ReadTumTrajectory(out / "CameraTrajectory.txt");
+  ASSERT_FALSE(localized.empty());
+  ASSERT_NEAR(localized.front().timestamp, view.timestamp, 1e-6);
+  const Rigid3d truth = loop.front().T_world_cam.Inverse() * view.T_world_cam;
+  const Rigid3d& found = localized.front().T_world_cam;
+  EXPECT_LT((found.translation - truth.translation).norm(), 0.05);
+  EXPECT_LT(RotationAngle(found.rotation, truth.rotation) * 180 / M_PI, 2.0);
+}
+
 // Bad map inputs: one line naming the file and the problem, the documented
 // exit code, and no output folder.
 TEST_F(MapPipelineTest, BadMapsAreRefused) {

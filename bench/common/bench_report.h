@@ -5,6 +5,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <iomanip>
@@ -52,6 +53,14 @@ class Report {
     return true;
   }
   std::string Text() const {
+    // Columns as wide as their longest entry (at least 44, 18, 16), two
+    // spaces apart.
+    size_t name_width = 42, value_width = 16, goal_width = 14;
+    for (const auto& [s, f] : figures_) {
+      name_width = std::max(name_width, f.name.size());
+      value_width = std::max(value_width, ValueText(f).size());
+      goal_width = std::max(goal_width, f.goal.size() + 5);
+    }
     std::ostringstream out;
     std::string section;
     for (const auto& [s, f] : figures_) {
@@ -62,10 +71,9 @@ class Report {
           if (ns == s) out << "  # " << text << "\n";
         }
       }
-      std::ostringstream value;
-      value << std::setprecision(6) << f.value << " " << f.unit;
-      out << "  " << std::left << std::setw(44) << f.name << std::setw(18) << value.str()
-          << std::setw(16) << ("goal " + f.goal) << (f.pass ? "PASS" : "FAIL") << "\n";
+      out << "  " << std::left << std::setw(name_width + 2) << f.name << std::setw(value_width + 2)
+          << ValueText(f) << std::setw(goal_width + 2) << ("goal " + f.goal)
+          << (f.pass ? "PASS" : "FAIL") << "\n";
     }
     return out.str();
   }
@@ -83,6 +91,12 @@ class Report {
   }
 
  private:
+  static std::string ValueText(const Figure& f) {
+    std::ostringstream value;
+    value << std::setprecision(6) << f.value << " " << f.unit;
+    return value.str();
+  }
+
   std::vector<std::pair<std::string, Figure>> figures_;
   std::vector<std::pair<std::string, std::string>> notes_;
 };

@@ -102,6 +102,12 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
          "pose)")
       ->check(CLI::IsMember(rrslam::RelocalizationMethodNames()))
       ->default_str(rrslam::ToString(o->tracker.relocalization.method));
+  app.add_option("--relocalization-covisible", o->tracker.relocalization.bow_covisible,
+                 "Bag-of-words stage: each candidate's matches joined by those of its N best "
+                 "covisible keyframes and verified against their local map (ORB-SLAM3's "
+                 "covisible window; 0 = the candidate alone, ORB-SLAM2)")
+      ->check(CLI::Range(0, 20))
+      ->capture_default_str();
   app.add_flag("--expand-all-local-keyframes", o->tracker.expand_all_local_keyframes,
                "Local map: neighbours of every observing keyframe (ORB-SLAM2 stops at the "
                "first parent)");

@@ -323,6 +323,7 @@ nlohmann::json TrackOptions::ToJson() const {
           {"small_vocab_groups", small_vocab_groups},
           {"expand_all_local_keyframes", tracker.expand_all_local_keyframes},
           {"relocalization", ToString(tracker.relocalization.method)},
+          {"relocalization_covisible", tracker.relocalization.bow_covisible},
           {"loop_closing", loop_closing},
           {"refine_map", refine_map},
           {"save_map", save_map.string()},

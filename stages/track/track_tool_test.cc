@@ -406,6 +406,7 @@ TEST(TrackHelp, DefaultsAreTheOptionsStructs) {
   EXPECT_EQ(defaults["close_tracked"], TrackerOptions{}.close_tracked);
   EXPECT_EQ(defaults["changed_point_views"], LocalMapperOptions{}.changed_point_min_views);
   EXPECT_EQ(defaults["relocalization"], ToString(TrackerOptions{}.relocalization.method));
+  EXPECT_EQ(defaults["relocalization_covisible"], TrackerOptions{}.relocalization.bow_covisible);
   EXPECT_NE(r.output.find("--relocalization TEXT:{bow,bow+direct,direct}=bow+direct"),
             std::string::npos);
 }

@@ -1,14 +1,47 @@
 #include "stages/track/data/map_point_index.h"
 
-#include <flann/flann.hpp>
+#include <algorithm>
+#include <random>
 
 #include "stages/track/data/map.h"
 #include "stages/track/data/map_point.h"
 
 namespace rrslam {
 
-struct MapPointIndex::Flann {
-  flann::Index<flann::Hamming<unsigned char>> index;
+// One hash table: the key of a descriptor is `bits` of its 256 bits; the
+// rows of each key stored contiguously (rows[offset .. offset + count)),
+// found through an open-addressing table of the keys (linear probing, at
+// most half full).
+struct MapPointIndex::Table {
+  struct Slot {
+    uint32_t key = 0;
+    uint32_t offset = 0;
+    uint32_t count = 0;  // 0: empty.
+  };
+  std::vector<int> bits;
+  std::vector<Slot> slots;  // A power of two.
+  std::vector<uint32_t> rows;
+
+  uint32_t Key(const OrbDescriptor& d) const {
+    uint32_t key = 0;
+    for (size_t b = 0; b < bits.size(); ++b) key |= static_cast<uint32_t>(d.Bit(bits[b])) << b;
+    return key;
+  }
+  size_t Home(uint32_t key) const {
+    return (static_cast<uint64_t>(key) * 0x9E3779B97F4A7C15ull >> 32) & (slots.size() - 1);
+  }
+  Slot& Insert(uint32_t key) {
+    size_t i = Home(key);
+    while (slots[i].count != 0 && slots[i].key != key) i = (i + 1) & (slots.size() - 1);
+    slots[i].key = key;
+    return slots[i];
+  }
+  const Slot* Find(uint32_t key) const {
+    for (size_t i = Home(key);; i = (i + 1) & (slots.size() - 1)) {
+      if (slots[i].count == 0) return nullptr;
+      if (slots[i].key == key) return &slots[i];
+    }
+  }
 };
 
 bool MapPointIndexOptions::Check(std::string* why) const {
@@ -19,12 +52,11 @@ bool MapPointIndexOptions::Check(std::string* why) const {
   if (tables < 1 || tables > 64) {
     return fail("tables = " + std::to_string(tables) + "; must be in [1, 64]");
   }
-  // FLANN's LSH keys are 32-bit.
   if (key_bits < 1 || key_bits > 32) {
     return fail("key_bits = " + std::to_string(key_bits) + "; must be in [1, 32]");
   }
-  if (probe_level < 0 || probe_level > 3) {
-    return fail("probe_level = " + std::to_string(probe_level) + "; must be in [0, 3]");
+  if (probe_level < 0 || probe_level > 1) {
+    return fail("probe_level = " + std::to_string(probe_level) + "; must be 0 or 1");
   }
   return true;
 }
@@ -45,18 +77,36 @@ void MapPointIndex::Build(const std::vector<MapPoint*>& points) {
   built_from_map_ = false;
   points_.clear();
   descriptors_.clear();
-  flann_.reset();
+  tables_.clear();
   for (MapPoint* p : points) {
     if (p == nullptr || p->bad()) continue;
     points_.push_back(p);
     descriptors_.push_back(p->descriptor());
   }
-  if (points_.empty()) return;
-  const flann::Matrix<unsigned char> rows(descriptors_.front().bytes, descriptors_.size(),
-                                          sizeof(OrbDescriptor));
-  flann_.reset(new Flann{flann::Index<flann::Hamming<unsigned char>>(
-      rows, flann::LshIndexParams(options_.tables, options_.key_bits, options_.probe_level))});
-  flann_->index.buildIndex();
+  // The same bits for every build: searches are reproducible.
+  std::mt19937_64 rng(options_.seed);
+  std::vector<int> all(8 * sizeof(OrbDescriptor));
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  for (int t = 0; t < options_.tables; ++t) {
+    Table& table = tables_.emplace_back();
+    std::shuffle(all.begin(), all.end(), rng);
+    table.bits.assign(all.begin(), all.begin() + options_.key_bits);
+    // Rows sorted by key (then row), each key's rows one bucket.
+    std::vector<std::pair<uint32_t, uint32_t>> keyed(descriptors_.size());
+    for (size_t r = 0; r < descriptors_.size(); ++r) {
+      keyed[r] = {table.Key(descriptors_[r]), static_cast<uint32_t>(r)};
+    }
+    std::sort(keyed.begin(), keyed.end());
+    size_t capacity = 2;
+    while (capacity < 2 * keyed.size()) capacity *= 2;
+    table.slots.assign(capacity, {});
+    table.rows.resize(keyed.size());
+    for (size_t i = 0; i < keyed.size(); ++i) {
+      table.rows[i] = keyed[i].second;
+      Table::Slot& slot = table.Insert(keyed[i].first);
+      if (slot.count++ == 0) slot.offset = static_cast<uint32_t>(i);
+    }
+  }
 }
 
 bool MapPointIndex::IsCurrent(const Map& map) const {
@@ -67,29 +117,39 @@ bool MapPointIndex::IsCurrent(const Map& map) const {
 std::vector<DescriptorNeighbours> MapPointIndex::Search(
     const std::vector<OrbDescriptor>& queries) const {
   std::vector<DescriptorNeighbours> out(queries.size());
-  if (flann_ == nullptr || queries.empty()) return out;
-  // A few more than two: culled points and repeats are skipped.
-  const size_t k = std::min<size_t>(4, points_.size());
-  std::vector<OrbDescriptor> query_rows(queries);
-  const flann::Matrix<unsigned char> query(query_rows.front().bytes, query_rows.size(),
-                                           sizeof(OrbDescriptor));
-  std::vector<std::vector<size_t>> indices;
-  std::vector<std::vector<unsigned int>> distances;
-  flann_->index.knnSearch(query, indices, distances, k, flann::SearchParams());
+  if (points_.empty()) return out;
+  // Rows already compared for the current query (its number + 1).
+  std::vector<uint32_t> seen(points_.size(), 0);
   for (size_t q = 0; q < queries.size(); ++q) {
+    const DescriptorWords query = ToWords(queries[q]);
+    const uint32_t stamp = static_cast<uint32_t>(q + 1);
     DescriptorNeighbours& n = out[q];
-    for (size_t j = 0; j < indices[q].size(); ++j) {
-      MapPoint* p = points_[indices[q][j]];
-      // FLANN's LSH may list a point once per table that holds it.
-      if (p->bad() || p == n.first) continue;
-      const int d = static_cast<int>(distances[q][j]);
-      if (n.first == nullptr) {
+    auto consider = [&](uint32_t row) {
+      if (seen[row] == stamp) return;
+      seen[row] = stamp;
+      MapPoint* p = points_[row];
+      if (p->bad()) return;
+      const int d = HammingDistance(query, ToWords(descriptors_[row]));
+      if (d < n.first_distance || (d == n.first_distance && n.first == nullptr)) {
+        n.second = n.first;
+        n.second_distance = n.first_distance;
         n.first = p;
         n.first_distance = d;
-      } else {
+      } else if (d < n.second_distance || (d == n.second_distance && n.second == nullptr)) {
         n.second = p;
         n.second_distance = d;
-        break;
+      }
+    };
+    for (const Table& table : tables_) {
+      const uint32_t key = table.Key(queries[q]);
+      // The query's bucket, then (probe level 1) those one key bit away.
+      for (int flip = -1; flip < (options_.probe_level > 0 ? options_.key_bits : 0); ++flip) {
+        const uint32_t probe = flip < 0 ? key : key ^ (1u << flip);
+        const Table::Slot* slot = table.Find(probe);
+        if (slot == nullptr) continue;
+        for (uint32_t i = slot->offset; i < slot->offset + slot->count; ++i) {
+          consider(table.rows[i]);
+        }
       }
     }
   }

@@ -1,9 +1,13 @@
 // Map points by descriptor: an index over the representative ORB descriptor
 // of every map point, for relocalization's direct 2D-3D matching
-// (module/relocalizer.h). FLANN's multi-probe LSH index for binary
-// descriptors (Hamming distance): `tables` hash tables, each keyed by
-// `key_bits` bits of the 256, and the buckets within `probe_level` bits of
-// the query's key searched too (Lv et al., VLDB 2007).
+// (module/relocalizer.h). Multi-probe LSH for binary descriptors (Hamming
+// distance; Lv et al., VLDB 2007), the scheme of FLANN's LshIndex: `tables`
+// hash tables, each keyed by `key_bits` of the 256 bits, and the buckets
+// within `probe_level` bits of the query's key searched too; the candidates
+// are compared exactly. Written here rather than taken from FLANN because
+// FLANN 1.9's LshTable draws its key bits from std::random_device: every
+// build differed, and so did the matches and relocalizations of a batch run.
+// Here the bits come from `seed`.
 //
 // The index is a snapshot: Build() takes the map's good points, and
 // IsCurrent() tells whether the map has created or removed points since
@@ -16,7 +20,6 @@
 #pragma once
 
 #include <cstdint>
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -35,7 +38,8 @@ struct MapPointIndexOptions {
   // frames (docs/track.md, "Direct relocalization").
   int tables = 12;
   int key_bits = 20;
-  int probe_level = 1;
+  int probe_level = 1;  // 0 or 1.
+  uint64_t seed = 1;    // Of the key bits.
   // False, with the reason in `why`, when a field is out of range.
   bool Check(std::string* why) const;
 };
@@ -68,11 +72,11 @@ class MapPointIndex {
   std::vector<DescriptorNeighbours> Search(const std::vector<OrbDescriptor>& queries) const;
 
  private:
-  struct Flann;
+  struct Table;
   MapPointIndexOptions options_;
-  std::vector<MapPoint*> points_;
-  std::vector<OrbDescriptor> descriptors_;  // Rows of the FLANN matrix.
-  std::unique_ptr<Flann> flann_;
+  std::vector<MapPoint*> points_;           // One row per point.
+  std::vector<OrbDescriptor> descriptors_;  // Parallel to points_.
+  std::vector<Table> tables_;
   // The map's state at the last build: points created and points in the map.
   size_t built_created_ = 0;
   size_t built_count_ = 0;

@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <random>
+#include <set>
 #include <tuple>
 
 #include "common/clock.h"
@@ -170,6 +171,9 @@ bool RelocalizationOptions::Check(std::string* why) const {
     if (why != nullptr) *why = message;
     return false;
   };
+  if (bow_covisible < 0 || bow_covisible > 20) {
+    return fail("bow_covisible = " + std::to_string(bow_covisible) + "; must be in [0, 20]");
+  }
   const DirectMatchOptions& d = direct;
   if (d.max_distance < 0 || d.max_distance > 256) {
     return fail("direct.max_distance = " + std::to_string(d.max_distance) +
@@ -193,10 +197,25 @@ bool RelocalizationOptions::Check(std::string* why) const {
     return fail("min_inliers = " + std::to_string(min_inliers) +
                 "; must be >= min_pose_inliers = " + std::to_string(min_pose_inliers));
   }
+  const LocalMapVerifyOptions& l = local_map;
+  if (l.keyframes < 1) {
+    return fail("local_map.keyframes = " + std::to_string(l.keyframes) + "; must be >= 1");
+  }
+  if (!(l.search_radius > 0)) {
+    return fail("local_map.search_radius = " + std::to_string(l.search_radius) +
+                "; must be > 0");
+  }
+  if (l.rounds < 1) {
+    return fail("local_map.rounds = " + std::to_string(l.rounds) + "; must be >= 1");
+  }
   return d.index.Check(why);
 }
 
 namespace {
+
+// Each voter's best covisible keyframes in the direct stage's local map
+// (as many as the tracker's local map takes).
+constexpr size_t kCovisibleNeighbours = 10;
 
 void ClearMatches(Frame* frame) {
   std::fill(frame->map_points.begin(), frame->map_points.end(), nullptr);
@@ -235,6 +254,43 @@ KeyFrame* MostObservingKeyFrame(const Frame& frame) {
   return best;
 }
 
+// The map points near a frame's matched points, not yet matched: those of
+// the keyframes observing the matched points and of each one's best
+// covisible keyframes, up to `max_keyframes` keyframes (voters first, by id).
+std::vector<MapPoint*> LocalMapPoints(const Frame& frame, int max_keyframes) {
+  std::map<KeyFrameId, KeyFrame*> voters;
+  for (MapPoint* p : frame.map_points) {
+    if (p == nullptr || p->bad()) continue;
+    for (const MapPoint::Observation& o : p->observations()) {
+      if (!o.keyframe->bad()) voters.emplace(o.keyframe->id(), o.keyframe);
+    }
+  }
+  std::vector<KeyFrame*> keyframes;
+  std::set<KeyFrameId> taken;
+  auto take = [&](KeyFrame* kf) {
+    if (static_cast<int>(keyframes.size()) < max_keyframes && !kf->bad() &&
+        taken.insert(kf->id()).second) {
+      keyframes.push_back(kf);
+    }
+  };
+  for (const auto& [id, kf] : voters) take(kf);
+  for (const auto& [id, kf] : voters) {
+    for (KeyFrame* n : kf->BestCovisible(kCovisibleNeighbours)) take(n);
+  }
+  std::set<MapPoint*> matched(frame.map_points.begin(), frame.map_points.end());
+  std::set<MapPointId> seen;
+  std::vector<MapPoint*> points;
+  for (KeyFrame* kf : keyframes) {
+    for (MapPoint* p : kf->map_points()) {
+      if (p == nullptr || p->bad() || matched.count(p) > 0 || !seen.insert(p->id()).second) {
+        continue;
+      }
+      points.push_back(p);
+    }
+  }
+  return points;
+}
+
 }  // namespace
 
 double Relocalizer::PrepareIndex() {
@@ -266,19 +322,20 @@ KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves,
   return nullptr;
 }
 
+int Relocalizer::OptimizeInliers(Frame* frame, SolveCounts* solves) const {
+  const int good = OptimizeFramePose(sensor_, frame, {}, solves);
+  for (size_t i = 0; i < frame->size(); ++i) {
+    if (frame->map_points[i] != nullptr && frame->outlier[i]) {
+      frame->map_points[i] = nullptr;
+      frame->outlier[i] = 0;
+    }
+  }
+  return good;
+}
+
 int Relocalizer::Verify(Frame* frame, const KeyFrame& kf, SolveCounts* solves) const {
   const Matcher projection_matcher(sensor_, 0.9, true);
-  // Inliers of the frame's current matches; non-inliers are dropped.
-  auto optimize = [&]() {
-    const int good = OptimizeFramePose(sensor_, frame, {}, solves);
-    for (size_t i = 0; i < frame->size(); ++i) {
-      if (frame->map_points[i] != nullptr && frame->outlier[i]) {
-        frame->map_points[i] = nullptr;
-        frame->outlier[i] = 0;
-      }
-    }
-    return good;
-  };
+  auto optimize = [&]() { return OptimizeInliers(frame, solves); };
   int good = optimize();
   if (good < options_.min_pose_inliers) return 0;
   // Few inliers: more of the keyframe's points, by projection, in a coarse
@@ -297,6 +354,47 @@ int Relocalizer::Verify(Frame* frame, const KeyFrame& kf, SolveCounts* solves) c
   return good;
 }
 
+int Relocalizer::VerifyByLocalMap(Frame* frame, SolveCounts* solves) const {
+  const LocalMapVerifyOptions& o = options_.local_map;
+  int good = OptimizeInliers(frame, solves);
+  if (good < options_.min_pose_inliers) return 0;
+  const Matcher matcher(sensor_, 0.8, false);
+  for (int round = 0; round < o.rounds; ++round) {
+    const Eigen::Matrix3d R = frame->R_cam_world();
+    const Eigen::Vector3d t = frame->T_cam_world().translation;
+    const Eigen::Vector3d centre = frame->camera_centre();
+    std::vector<ProjectedPoint> predicted;
+    for (MapPoint* point : LocalMapPoints(*frame, o.keyframes)) {
+      ProjectedPoint pp;
+      if (ProjectIntoView(sensor_, R, t, centre, point, 0.5, &pp)) predicted.push_back(pp);
+    }
+    const int added = matcher.SearchByProjection(frame, predicted, o.search_radius);
+    spdlog::debug(
+        "relocalization: frame {}: local map round {}: {} inliers, {} predicted, {} added",
+        frame->id(), round, good, predicted.size(), added);
+    good = OptimizeInliers(frame, solves);
+  }
+  return good;
+}
+
+int Relocalizer::BowMatches(const Matcher& matcher, const KeyFrame& kf, const Frame& frame,
+                            std::vector<MapPoint*>* matches) const {
+  int n = matcher.SearchByBow(kf, frame, matches);
+  if (options_.bow_covisible <= 0) return n;
+  std::set<const MapPoint*> taken(matches->begin(), matches->end());
+  std::vector<MapPoint*> more;
+  for (KeyFrame* c : kf.BestCovisible(static_cast<size_t>(options_.bow_covisible))) {
+    if (c->bad()) continue;
+    matcher.SearchByBow(*c, frame, &more);
+    for (size_t i = 0; i < more.size(); ++i) {
+      if ((*matches)[i] != nullptr || more[i] == nullptr || !taken.insert(more[i]).second) continue;
+      (*matches)[i] = more[i];
+      ++n;
+    }
+  }
+  return n;
+}
+
 KeyFrame* Relocalizer::RelocalizeByBow(Frame* frame, SolveCounts* solves,
                                        RelocalizationAttempt* attempt) {
   const std::vector<KeyFrame*> candidates = database_.DetectRelocalizationCandidates(frame->bow());
@@ -307,7 +405,7 @@ KeyFrame* Relocalizer::RelocalizeByBow(Frame* frame, SolveCounts* solves,
   for (KeyFrame* kf : candidates) {
     if (kf->bad()) continue;
     std::vector<MapPoint*> matches;
-    if (bow_matcher.SearchByBow(*kf, *frame, &matches) < options_.min_bow_matches) continue;
+    if (BowMatches(bow_matcher, *kf, *frame, &matches) < options_.min_bow_matches) continue;
 
     std::vector<Eigen::Vector3d> points_world;
     std::vector<Eigen::Vector2d> pixels;
@@ -330,7 +428,10 @@ KeyFrame* Relocalizer::RelocalizeByBow(Frame* frame, SolveCounts* solves,
       if (pnp.inlier[j]) frame->map_points[keypoint[j]] = matches[keypoint[j]];
     }
     frame->SetPose(pnp.T_cam_world);
-    const int good = Verify(frame, *kf, solves);
+    // A covisible window's matches are verified against its local map.
+    const int good =
+        options_.bow_covisible > 0 ? VerifyByLocalMap(frame, solves) : Verify(frame, *kf, solves);
+    attempt->inliers = std::max(attempt->inliers, good);
     if (good >= options_.min_inliers) {
       attempt->inliers = good;
       return kf;
@@ -450,13 +551,10 @@ KeyFrame* Relocalizer::RelocalizeDirect(Frame* frame, SolveCounts* solves,
       "relocalization: frame {}: {} direct matches in {:.1f} ms, RANSAC {} inliers in {:.1f} ms",
       frame->id(), matches.size(), search_ms, ransac_inliers, MillisecondsSince(ransac_start));
   frame->SetPose(T);
+  const int good = VerifyByLocalMap(frame, solves);
   KeyFrame* kf = MostObservingKeyFrame(*frame);
-  if (kf == nullptr) {
-    ClearMatches(frame);
-    return nullptr;
-  }
-  const int good = Verify(frame, *kf, solves);
-  if (good < options_.min_inliers) {
+  if (good < options_.min_inliers || kf == nullptr) {
+    attempt->inliers = std::max(attempt->inliers, good);
     ClearMatches(frame);
     return nullptr;
   }

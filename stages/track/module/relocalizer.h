@@ -29,8 +29,14 @@
 // distinctive `max_matches` kept. A RANSAC over these fits the pose from
 // three keypoints with depth (solve/absolute_pose_ransac.h), or by PnP
 // (SolvePnpRansac) when fewer than min_inliers have depth. The inliers then
-// go through the same verification as a BoW candidate's, against the
-// keyframe that observes most of them; 50 inliers relocalize the frame.
+// seed a search of their local map (LocalMapVerifyOptions: the keyframes
+// observing them and their covisible ones, as the tracker searches after a
+// relocalization); 50 inliers relocalize the frame. The map-point index is
+// deterministic (its own seeded LSH), so batch runs stay bit-identical.
+//
+// `bow_covisible` widens the BoW stage as ORB-SLAM3's place recognition:
+// each candidate's matches joined by those of its best covisible keyframes,
+// the pose verified against their local map.
 //
 // `method` picks the stages: bow (ORB-SLAM2), direct, or bow+direct (the
 // direct stage when the BoW stage finds no pose).
@@ -54,6 +60,8 @@
 #include "stages/track/solve/absolute_pose_ransac.h"
 
 namespace rrslam {
+
+class Matcher;
 
 struct PnpRansacOptions {
   // ORB-SLAM2's PnPsolver::SetRansacParameters(0.99, 10, 300, 4, 0.5, 5.991).
@@ -105,14 +113,31 @@ struct DirectMatchOptions {
   MapPointIndexOptions index;
 };
 
+// Verification of a pose against its local map (the direct stage's, and
+// the BoW stage's with a covisible window): the keyframes observing the
+// pose's inlier points and their best covisible ones, up to `keyframes`;
+// their points projected and matched in the tracker's window after a
+// relocalization (`search_radius` x the scale of the predicted level),
+// `rounds` times, the pose optimized after each.
+struct LocalMapVerifyOptions {
+  int keyframes = 30;
+  double search_radius = 5.0;
+  int rounds = 2;
+};
+
 struct RelocalizationOptions {
   RelocalizationMethod method = RelocalizationMethod::kBowDirect;
   double bow_ratio = 0.75;
   int min_bow_matches = 15;
+  // Each candidate's BoW matches joined by those of its best covisible
+  // keyframes, up to this many (ORB-SLAM3's place recognition matches a
+  // candidate's covisible window; 0: the candidate alone, as ORB-SLAM2).
+  int bow_covisible = 0;
   int min_pose_inliers = 10;  // After the first pose optimization.
   int min_inliers = 50;       // To accept the pose.
   PnpRansacOptions ransac;
   DirectMatchOptions direct;
+  LocalMapVerifyOptions local_map;
   // Names the first field out of range.
   bool Check(std::string* why) const;
 };
@@ -122,10 +147,12 @@ struct RelocalizationAttempt {
   std::string stage;       // "bow" or "direct": the stage that found the pose; "" none.
   int bow_candidates = 0;  // Keyframes the database proposed.
   int direct_matches = 0;  // Correspondences into the direct stage's RANSAC.
-  int inliers = 0;         // Of the accepted pose, after verification.
-  double index_ms = 0;     // Rebuilding the map-point index, when this attempt did.
-  double ms = 0;           // The whole attempt (the tracker times it).
-  double timestamp = 0;    // The frame's (the tracker sets it).
+  // After verification: of the accepted pose; when none was accepted, the
+  // most that any verified pose reached.
+  int inliers = 0;
+  double index_ms = 0;   // Rebuilding the map-point index, when this attempt did.
+  double ms = 0;         // The whole attempt (the tracker times it).
+  double timestamp = 0;  // The frame's (the tracker sets it).
 };
 
 class Relocalizer {
@@ -153,6 +180,11 @@ class Relocalizer {
 
  private:
   KeyFrame* RelocalizeByBow(Frame* frame, SolveCounts* solves, RelocalizationAttempt* attempt);
+  // The BoW matches of `frame`'s keypoints with `kf`'s map points (and its
+  // covisible keyframes', RelocalizationOptions::bow_covisible): one map
+  // point or nullptr per keypoint; the number matched.
+  int BowMatches(const Matcher& matcher, const KeyFrame& kf, const Frame& frame,
+                 std::vector<MapPoint*>* matches) const;
   KeyFrame* RelocalizeDirect(Frame* frame, SolveCounts* solves, RelocalizationAttempt* attempt);
   // The frame's map points matched by the index, with their RANSAC inputs.
   std::vector<PoseCorrespondence> DirectMatches(const Frame& frame, std::vector<MapPoint*>* points,
@@ -165,6 +197,12 @@ class Relocalizer {
   // `keyframe`: optimized, completed by projection; the inliers it ends with
   // (0 when below min_pose_inliers after the first optimization).
   int Verify(Frame* frame, const KeyFrame& keyframe, SolveCounts* solves) const;
+  // Verification against the local map (LocalMapVerifyOptions) of a pose
+  // found from a frame's inlier matches; the inliers it ends with (0 when
+  // below min_pose_inliers after the first optimization).
+  int VerifyByLocalMap(Frame* frame, SolveCounts* solves) const;
+  // Pose optimization of the frame's matches; drops the outliers; the inliers.
+  int OptimizeInliers(Frame* frame, SolveCounts* solves) const;
 
   const SensorModel& sensor_;
   const KeyFrameDatabase& database_;

@@ -208,6 +208,30 @@ TEST_F(RelocalizerTest, AViewThirtyDegreesFromEveryKeyFrame) {
   EXPECT_LT(RotationAngle(frame.T_cam_world().rotation, T_true.rotation), 0.2 * M_PI / 180);
 }
 
+// The direct stage's pose from a handful of matches is completed by its
+// local map: 15 matches into the RANSAC, at least 50 inliers in the end.
+TEST_F(RelocalizerTest, TheDirectStageCompletesAFewMatchesFromTheLocalMap) {
+  RelocalizationOptions options = WithMethod(RelocalizationMethod::kDirect);
+  options.direct.max_matches = 15;
+  const Rigid3d T_true = SmallMotion(0.02, -0.02) * truth_[1];
+  Frame frame = QueryFrame(scene_, T_true);
+  Frame again = frame;
+  Relocalizer relocalizer(sensor_, database_, map_, options);
+  RelocalizationAttempt attempt;
+  ASSERT_NE(relocalizer.Relocalize(&frame, nullptr, &attempt), nullptr);
+  EXPECT_EQ(attempt.direct_matches, 15);
+  EXPECT_GE(attempt.inliers, 50);
+  EXPECT_LT(TranslationError(frame.T_cam_world(), T_true), 0.01);
+
+  // Fewer verified inliers than asked for: no pose, and the attempt says
+  // how many the pose had.
+  options.min_inliers = attempt.inliers + 1;
+  Relocalizer strict(sensor_, database_, map_, options);
+  EXPECT_EQ(strict.Relocalize(&again, nullptr, &attempt), nullptr);
+  EXPECT_EQ(attempt.stage, "");
+  EXPECT_EQ(attempt.inliers, options.min_inliers - 1);
+}
+
 TEST_F(RelocalizerTest, AFrameOfAnotherPlaceIsNotRelocalized) {
   for (RelocalizationMethod method : kMethods) {
     SCOPED_TRACE(ToString(method));
@@ -236,6 +260,29 @@ TEST(RelocalizationOptionsTest, MethodNamesRoundTripAndBadOptionsAreNamed) {
   options.direct.ratio = 1.5;
   EXPECT_FALSE(options.Check(&why));
   EXPECT_EQ(why, "direct.ratio = 1.500000; must be in (0, 1]");
+  options = {};
+  options.local_map.keyframes = 0;
+  EXPECT_FALSE(options.Check(&why));
+  EXPECT_EQ(why, "local_map.keyframes = 0; must be >= 1");
+  options = {};
+  options.bow_covisible = 21;
+  EXPECT_FALSE(options.Check(&why));
+  EXPECT_EQ(why, "bow_covisible = 21; must be in [0, 20]");
+}
+
+// ORB-SLAM3's covisible window: each candidate's matches with those of its
+// covisible keyframes find the pose as the candidate alone does.
+TEST_F(RelocalizerTest, TheCovisibleWindowFindsThePose) {
+  RelocalizationOptions options = WithMethod(RelocalizationMethod::kBow);
+  options.bow_covisible = 3;
+  const Rigid3d T_true = SmallMotion(0.01, 0.02) * truth_[2];
+  Frame frame = QueryFrame(scene_, T_true);
+  Relocalizer relocalizer(sensor_, database_, map_, options);
+  RelocalizationAttempt attempt;
+  ASSERT_NE(relocalizer.Relocalize(&frame, nullptr, &attempt), nullptr);
+  EXPECT_EQ(attempt.stage, "bow");
+  EXPECT_GE(attempt.inliers, 50);
+  EXPECT_LT(TranslationError(frame.T_cam_world(), T_true), 0.01);
 }
 
 }  // namespace

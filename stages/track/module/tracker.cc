@@ -382,17 +382,21 @@ bool Tracker::TrackLocalMap() {
   for (MapPoint* p : current_.map_points) before += p != nullptr;
   const int found = SearchLocalPoints();
   OptimizeFramePose(sensor_, &current_, {}, &pose_solves_);
-  spdlog::debug(
-      "frame {}: {} matched before local map, {} local keyframes, {} local points, {} found",
-      current_.id(), before, local_keyframes_.size(), local_points_.size(), found);
   matches_inliers_ = 0;
+  int map_inliers = 0;
   for (size_t i = 0; i < current_.size(); ++i) {
     MapPoint* point = current_.map_points[i];
     if (point == nullptr || current_.outlier[i]) continue;
     point->IncreaseFound();
+    map_inliers += point->num_observations() > 0;
     // Localization only counts every inlier (ORB-SLAM2).
     if (point->num_observations() > 0 || options_.localization_only) ++matches_inliers_;
   }
+  spdlog::debug(
+      "frame {}: {} matched before local map, {} local keyframes, {} local points, {} found, "
+      "{} inliers ({} of them map points)",
+      current_.id(), before, local_keyframes_.size(), local_points_.size(), found, matches_inliers_,
+      map_inliers);
   if (RecentlyRelocalized(options_.max_keyframe_gap) &&
       matches_inliers_ < options_.min_local_map_inliers_relocalized) {
     return false;
