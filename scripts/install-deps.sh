@@ -35,6 +35,7 @@ if [[ "$group" == all ]]; then
     clang libclang-rt-14-dev   # libFuzzer for `make fuzz` and the fuzz smoke tests
     chromium   # headless WebGL test of that viewer (render/html_viewer)
     slurm-wlm munge  # LAUNCHER=srun: the e2e/slurm test starts a one-node Slurm of its own
+    cloudcompare     # render's PLY test reads rrslam's PLY with CloudCompare's command line
   )
 fi
 

@@ -188,7 +188,8 @@ class PlyParser {
     red_ = IndexOf("red");
     green_ = IndexOf("green");
     blue_ = IndexOf("blue");
-    observations_ = IndexOf("observations");
+    observations_ = IndexOf("scalar_observations");
+    if (observations_ < 0) observations_ = IndexOf("observations");
     has_normals_ = nx_ >= 0 && ny_ >= 0 && nz_ >= 0;
     has_colors_ = red_ >= 0 && green_ >= 0 && blue_ >= 0;
   }
@@ -299,7 +300,7 @@ std::string EncodePly(const PlyCloud& cloud, PlyFormat format) {
   out += "property float x\nproperty float y\nproperty float z\n";
   if (normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
   if (colors) out += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-  if (observations) out += "property int observations\n";
+  if (observations) out += "property int scalar_observations\n";
   if (!cloud.triangles.empty()) {
     out += fmt::format("element face {}\n", cloud.triangles.size());
     out += "property list uchar int vertex_indices\n";

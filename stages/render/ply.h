@@ -5,7 +5,10 @@
 //   float x y z                      position (the map's world frame, metres)
 //   float nx ny nz                   normal (unit)
 //   uchar red green blue             colour (sRGB)
-//   int observations                 keyframes that observe the point
+//   int scalar_observations          keyframes that observe the point (the
+//                                    scalar_ prefix: CloudCompare keeps such
+//                                    properties as scalar fields and drops
+//                                    others; read back under either name)
 // and, when faces are given, `element face` with `property list uchar int
 // vertex_indices` (triangles).
 #pragma once
@@ -29,6 +32,10 @@ struct PlyCloud {
   std::vector<std::array<int32_t, 3>> triangles;  // Vertex indices; may be empty.
   std::vector<std::string> comments;              // Header comments (one line each).
 };
+
+// The header comment that names the frame of rrslam's clouds.
+inline constexpr const char* kMapFrameComment =
+    "frame: map world = the first keyframe's camera (x right, y down, z forward), metres";
 
 // Serializes a cloud. Throws std::invalid_argument when a per-vertex array
 // has the wrong length, a triangle index is out of range or a comment holds a

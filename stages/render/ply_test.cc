@@ -42,7 +42,7 @@ TEST(Ply, AsciiAndBinaryRoundTrip) {
   EXPECT_NE(ascii.find("format ascii 1.0\n"), std::string::npos);
   EXPECT_NE(ascii.find("element vertex 3\n"), std::string::npos);
   EXPECT_NE(ascii.find("property uchar red\n"), std::string::npos);
-  EXPECT_NE(ascii.find("property int observations\n"), std::string::npos);
+  EXPECT_NE(ascii.find("property int scalar_observations\n"), std::string::npos);
   EXPECT_NE(ascii.find("element face 1\nproperty list uchar int vertex_indices\n"),
             std::string::npos);
 }

@@ -282,7 +282,7 @@ std::filesystem::path RunRenderPly(const RenderPlyOptions& options) {
   cloud.comments.push_back(options.sequence.empty()
                                ? std::string("colour grey (no --sequence)")
                                : "colour from keyframe images of " + options.sequence.string());
-  cloud.comments.push_back("frame: map world, metres");
+  cloud.comments.push_back(kMapFrameComment);
   WritePly(options.out, cloud, options.binary ? PlyFormat::kBinaryLittleEndian : PlyFormat::kAscii);
   return options.out;
 }
@@ -360,7 +360,9 @@ void BindRenderCommands(CLI::App& app, RenderCommands* c) {
                   "(default: grey)");
   ply->add_option("--associations", c->ply.associations,
                   "Associations file of the sequence (as rrslam-track)");
-  ply->add_flag("--binary", c->ply.binary, "binary_little_endian instead of ASCII");
+  ply->add_flag("--binary,!--ascii", c->ply.binary,
+                "PLY as binary little-endian (default: 3x smaller, exact floats, read as fast as "
+                "any viewer can) or --ascii");
   ply->callback([c] { c->chosen = "ply"; });
 
   CLI::App* html = app.add_subcommand(

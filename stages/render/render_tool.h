@@ -53,8 +53,8 @@ struct RenderPlyOptions {
   std::filesystem::path out;       // .ply file.
   std::filesystem::path sequence;  // Sequence folder for colours; empty = grey.
   std::filesystem::path
-      associations;     // As rrslam-track's --associations (relative to the sequence).
-  bool binary = false;  // binary_little_endian instead of ASCII.
+      associations;    // As rrslam-track's --associations (relative to the sequence).
+  bool binary = true;  // binary_little_endian (--binary, the default); false: ASCII (--ascii).
 
   bool Check(std::string* why) const;
 };

@@ -5,17 +5,24 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <sstream>
+
+#include "common/atomic_file.h"
 #include "common/errors.h"
 #include "common/image_io.h"
 #include "common/testing.h"
 #include "common/trajectory.h"
 #include "stages/mapstore/map_file.h"
 #include "stages/render/image_file.h"
+#include "stages/render/ply.h"
 #include "stages/render/render_test_util.h"
 
 namespace rrslam {
 namespace {
 
+using testing::Quote;
+using testing::RunCommand;
 using testing::RunTool;
 
 class RenderTool : public ::testing::Test {
@@ -91,7 +98,7 @@ TEST_F(RenderTool, PlyHasTheMapsPointsAndImageColours) {
     const std::string out = path(binary ? "b.ply" : "a.ply");
     const auto result =
         RunTool("render", "ply --map " + path("m.rrm") + " --out " + out + " --sequence " +
-                              path("seq") + (binary ? " --binary" : ""));
+                              path("seq") + (binary ? "" : " --ascii"));
     ASSERT_EQ(result.exit_code, 0) << result.output;
     const PlyCloud cloud = ReadPly(out);
     ASSERT_EQ(cloud.positions.size(), map_.map_points.size());
@@ -111,10 +118,41 @@ TEST_F(RenderTool, PlyHasTheMapsPointsAndImageColours) {
       EXPECT_LT(cloud.normals[i].z(), -0.8f);
     }
   }
-  // Without a sequence: grey.
+  // Without a sequence: grey. Binary by default; the header names the frame
+  // and calls the observations a scalar field (CloudCompare keeps it).
   ASSERT_EQ(RunTool("render", "ply --map " + path("m.rrm") + " --out " + path("g.ply")).exit_code,
             0);
-  EXPECT_EQ(ReadPly(path("g.ply")).colors.front(), (std::array<uint8_t, 3>{128, 128, 128}));
+  const PlyCloud grey = ReadPly(path("g.ply"));
+  EXPECT_EQ(grey.colors.front(), (std::array<uint8_t, 3>{128, 128, 128}));
+  const std::string header = ReadFileToString(path("g.ply")).substr(0, 600);
+  EXPECT_NE(header.find("format binary_little_endian 1.0\n"), std::string::npos) << header;
+  EXPECT_NE(header.find("property int scalar_observations\n"), std::string::npos) << header;
+  EXPECT_NE(std::find(grey.comments.begin(), grey.comments.end(), kMapFrameComment),
+            grey.comments.end());
+}
+
+// The PLY as CloudCompare, a program users hold, reads it: every point, its
+// colour and normal, and the observations as a scalar field (a property not
+// named scalar_* it drops). Skipped where CloudCompare is not installed.
+TEST_F(RenderTool, CloudCompareKeepsEveryPropertyOfThePly) {
+  if (RunCommand("command -v CloudCompare > /dev/null").exit_code != 0) {
+    GTEST_SKIP() << "CloudCompare is not installed (scripts/install-deps.sh all installs it)";
+  }
+  const std::string ply = path("cc.ply");
+  ASSERT_EQ(RunTool("render",
+                    "ply --map " + path("m.rrm") + " --out " + ply + " --sequence " + path("seq"))
+                .exit_code,
+            0);
+  const auto cc = RunCommand("QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -NO_TIMESTAMP -O " +
+                             Quote(ply) + " -C_EXPORT_FMT ASC -ADD_HEADER -SAVE_CLOUDS");
+  ASSERT_EQ(cc.exit_code, 0) << cc.output;
+  std::istringstream asc(ReadFileToString(path("cc.asc")));
+  std::string header, line;
+  std::getline(asc, header);
+  EXPECT_EQ(header, "//X Y Z R G B observations Nx Ny Nz");
+  size_t rows = 0;
+  while (std::getline(asc, line)) rows += !line.empty();
+  EXPECT_EQ(rows, map_.map_points.size());
 }
 
 TEST_F(RenderTool, TrajectoryAgainstGroundTruth) {

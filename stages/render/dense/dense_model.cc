@@ -954,7 +954,7 @@ std::vector<std::string> CloudComments(const std::string& producer,
   const Eigen::Vector3d& o = result.volume_origin;
   return {"producer " + producer,
           "rrslam-render dense: TSDF surface points (OpenCV rgbd COLOREDTSDF) of " + map_name,
-          "frame: the map's world frame, metres",
+          kMapFrameComment,
           "options " + DumpJson(options_json),
           "volume voxel " + Format("%g", result.voxel) + " truncation " +
               Format("%g", result.truncation) + " origin " + Format("%.6f", o.x()) + " " +
