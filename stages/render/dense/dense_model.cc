@@ -168,7 +168,10 @@ Rigid3d ChooseView(const std::vector<Rigid3d>& poses, const PlyCloud& cloud, dou
 // that see them: each view's colour at the sample's projection, where the
 // view's depth there agrees with the sample's within `tolerance` (not
 // occluded), weighted by the squared cosine between the normal and the ray
-// (frontal views count most).
+// (frontal views count most). The views that see a sample from behind its
+// normal are kept apart: a sample that only such views see has its normal
+// the wrong way round (the TSDF's gradient at thin parts, edges and
+// clutter), and FacesAway() says so; its colour comes from those views.
 //
 // Why not the volume's colours alone: OpenCV 4.6's COLOREDTSDF keeps one
 // colour per voxel, and getColorVoxel (raycast, fetchPointsNormalsColors)
@@ -194,6 +197,7 @@ class ColorAccumulator {
   void AddView(const cv::Mat& depth, const cv::Mat& color, const Rigid3d& T_world_cam,
                const DenseCamera& camera, double tolerance) {
     if (sums_.size() != points_.size()) sums_.assign(points_.size(), Eigen::Vector4f::Zero());
+    if (behind_.size() != points_.size()) behind_.assign(points_.size(), Eigen::Vector4f::Zero());
     const Rigid3d T_cam_world = T_world_cam.Inverse();
     const Eigen::Matrix3f R = T_cam_world.RotationMatrix().cast<float>();
     const Eigen::Vector3f t = T_cam_world.translation.cast<float>();
@@ -214,7 +218,7 @@ class ColorAccumulator {
         const float d = depth.at<float>(static_cast<int>(v + 0.5f), static_cast<int>(u + 0.5f));
         if (d == 0 || std::abs(d - p_cam.z()) > tol) continue;
         const float cosine = normals_[i].dot((centre - p).normalized());
-        if (!(cosine > 0)) continue;
+        if (!std::isfinite(cosine) || cosine == 0) continue;
         // Bilinear colour at (u, v).
         const int u0 = std::min(static_cast<int>(u), depth.cols - 2);
         const int v0 = std::min(static_cast<int>(v), depth.rows - 2);
@@ -227,21 +231,31 @@ class ColorAccumulator {
                       b * ((1 - a) * row1[u0][2 - k] + a * row1[u0 + 1][2 - k]);
         }
         sample[3] = 1;
-        sums_[i] += cosine * cosine * sample;
+        (cosine > 0 ? sums_[i] : behind_[i]) += cosine * cosine * sample;
       }
     });
   }
 
-  // The RGB average of sample i; false when no view saw it.
+  // Whether only views from behind its normal saw sample i.
+  bool FacesAway(size_t i) const {
+    return i < sums_.size() && !(sums_[i][3] > 0) && behind_[i][3] > 0;
+  }
+
+  // The RGB average of sample i over the views in front of its normal (or,
+  // when it FacesAway, behind it); false when no view saw it.
   bool Get(size_t i, Eigen::Vector3f* rgb) const {
-    if (i >= sums_.size() || !(sums_[i][3] > 0)) return false;
-    *rgb = sums_[i].head<3>() / sums_[i][3];
+    if (i >= sums_.size()) return false;
+    const Eigen::Vector4f& sum = FacesAway(i) ? behind_[i] : sums_[i];
+    if (!(sum[3] > 0)) return false;
+    *rgb = sum.head<3>() / sum[3];
     return true;
   }
 
  private:
   std::vector<Eigen::Vector3f> points_, normals_;
-  std::vector<Eigen::Vector4f> sums_;  // Weighted R, G, B and the weight.
+  // Weighted R, G, B and the weight, of the views in front of each sample's
+  // normal and of those behind it.
+  std::vector<Eigen::Vector4f> sums_, behind_;
 };
 
 // Frames the points in a width x height picture from `T_world_view`: the
@@ -533,6 +547,7 @@ nlohmann::ordered_json DenseResult::ToJson() const {
           {"points", points},
           {"points_without_normal", points_without_normal},
           {"points_colored_by_volume", points_colored_by_volume},
+          {"normals_flipped", normals_flipped},
           {"depth_bounds_min", vec(depth_bounds.min())},
           {"depth_bounds_max", vec(depth_bounds.max())},
           {"volume_origin", vec(volume_origin)},
@@ -781,6 +796,10 @@ DenseModel BuildDenseModel(const DenseOptions& options, const DenseCamera& camer
   }
   Eigen::Vector3f rgb;
   for (size_t i = 0; i < cloud.positions.size(); ++i) {
+    if (colors_from_views.FacesAway(i)) {
+      cloud.normals[i] = -cloud.normals[i];
+      ++result.normals_flipped;
+    }
     if (!colors_from_views.Get(i, &rgb)) {
       ++result.points_colored_by_volume;
       continue;
@@ -789,7 +808,9 @@ DenseModel BuildDenseModel(const DenseOptions& options, const DenseCamera& camer
   }
   for (int v = 0; v < height; ++v) {
     for (int u = 0; u < width; ++u) {
-      if (colors_from_views.Get(first_pixel + static_cast<size_t>(v) * width + u, &rgb)) {
+      // A pixel keeps the volume's colour rather than one from behind it.
+      const size_t sample = first_pixel + static_cast<size_t>(v) * width + u;
+      if (!colors_from_views.FacesAway(sample) && colors_from_views.Get(sample, &rgb)) {
         ray_colors.at<cv::Vec4f>(v, u) = cv::Vec4f(rgb[0], rgb[1], rgb[2], 0);
       }
     }
@@ -961,7 +982,8 @@ std::vector<std::string> CloudComments(const std::string& producer,
               Format("%.6f", o.y()) + " " + Format("%.6f", o.z()) + " resolution " +
               std::to_string(result.resolution.x()) + " " + std::to_string(result.resolution.y()) +
               " " + std::to_string(result.resolution.z()),
-          "keyframes_fused " + std::to_string(result.keyframes_fused)};
+          "keyframes_fused " + std::to_string(result.keyframes_fused),
+          "normals_flipped " + std::to_string(result.normals_flipped)};
 }
 
 // The rendering's metadata: producer, description, options and viewpoint.

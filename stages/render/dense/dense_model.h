@@ -133,6 +133,9 @@ struct DenseResult {
   size_t points = 0;                    // Surface points exported.
   size_t points_without_normal = 0;     // Dropped: no TSDF gradient there (volume border).
   size_t points_colored_by_volume = 0;  // No view sees them: the volume's colour.
+  // Normals turned round: every view that sees the point saw it from behind
+  // the TSDF's normal (ColorAccumulator in dense_model.cc).
+  size_t normals_flipped = 0;
   // The volume's axes in the world (columns); its z axis points against the
   // views' optical axes (ChooseDenseVolumeAxes in dense_model.cc explains why).
   Eigen::Matrix3d R_world_volume = Eigen::Matrix3d::Identity();
