@@ -125,6 +125,7 @@ struct Options {
 struct Bench {
   Options options;
   std::string load_before;
+  rrslam::MapData map;               // The map, read once.
   size_t keyframes = 0;              // In the map.
   fs::path ply;                      // Output of the measured runs.
   std::vector<std::string> command;  // The measured runs' argv.
@@ -163,7 +164,8 @@ void Prepare(Bench* b) {
   const Options& o = b->options;
   fs::create_directories(o.work);
   b->load_before = LoadAverage();
-  b->keyframes = rrslam::ReadMapFile(o.map).keyframes.size();
+  b->map = rrslam::ReadMapFile(o.map);
+  b->keyframes = b->map.keyframes.size();
   b->ply = o.work / "model.ply";
   b->command = DenseCommand(o, b->ply, o.voxel);
   for (const std::string& a : b->command) {
@@ -244,6 +246,15 @@ std::pair<size_t, size_t> NormalsFacingAway(const rrslam::PlyCloud& cloud,
   return {away, seen};
 }
 
+// The number a header comment "NAME N" of `cloud` gives; 0 when none does.
+size_t CommentNumber(const rrslam::PlyCloud& cloud, const std::string& name) {
+  const std::string prefix = name + " ";
+  for (const std::string& c : cloud.comments) {
+    if (c.rfind(prefix, 0) == 0) return std::stoul(c.substr(prefix.size()));
+  }
+  return 0;
+}
+
 // The runs' times and memory against the goals, and the PLY they wrote.
 void ReportRuns(const RunFigures& f, Bench* b) {
   const std::string& s = b->section;
@@ -254,10 +265,7 @@ void ReportRuns(const RunFigures& f, Bench* b) {
     return;
   }
   const rrslam::PlyCloud cloud = rrslam::ReadPly(b->ply);
-  size_t fused = 0;
-  for (const std::string& c : cloud.comments) {
-    if (c.rfind("keyframes_fused ", 0) == 0) fused = std::stoul(c.substr(16));
-  }
+  const size_t fused = CommentNumber(cloud, "keyframes_fused");
   const double peak = *std::max_element(f.rss.begin(), f.rss.end());
   const double wall = Median(f.walls);
   report.Note(s, "rrslam-render: " + f.summary);
@@ -279,16 +287,12 @@ void ReportRuns(const RunFigures& f, Bench* b) {
   const bool complete = cloud.normals.size() == cloud.positions.size() &&
                         cloud.colors.size() == cloud.positions.size();
   report.Add(s, {"every point has a normal and a colour", complete ? 1.0 : 0.0, "", "1", complete});
-  const auto [away, seen] = NormalsFacingAway(cloud, rrslam::ReadMapFile(b->options.map));
+  const auto [away, seen] = NormalsFacingAway(cloud, b->map);
   const double away_pct = 100.0 * static_cast<double>(away) / std::max<size_t>(1, seen);
   report.Add(s, {"normals facing away from every keyframe that holds the point", away_pct,
                  "% of " + std::to_string(seen), "<= 1 %", away_pct <= 1});
-  size_t flipped = 0;
-  for (const std::string& c : cloud.comments) {
-    if (c.rfind("normals_flipped ", 0) == 0) flipped = std::stoul(c.substr(16));
-  }
   report.Add(s, {"  normals rrslam-render turned round (seen from behind only)",
-                 static_cast<double>(flipped), "", "-", true});
+                 static_cast<double>(CommentNumber(cloud, "normals_flipped")), "", "-", true});
   report.Add(s, {"PLY size", static_cast<double>(fs::file_size(b->ply)) / 1e6, "MB", "-", true});
 }
 

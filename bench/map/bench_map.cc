@@ -342,17 +342,6 @@ class ExtractedFrames {
   rrslam::FeaturesFile features_;
 };
 
-// Every `stride`-th frame of the sequence starts a tracker lost on the map,
-// as `--load-map --localization-only` starts: that frame makes one
-// relocalization attempt, timed as rrslam-track times it (the frame's bag of
-// words, candidates, BoW matching, PnP RANSAC, pose optimization, projection
-// searches; feature extraction excluded), and its pose, when relocalized, is
-// compared with the ground truth in the map's frame (`alignment`: the ground
-// truth aligned on the mapping run) and with the pose the map gives that
-// frame when the whole sequence is localized on it continuously (the
-// relocalization's own error, without the map's). When it fails, the next
-// frames are tracked for up to 1 s of their timestamps: whether a start
-// finds its pose within a second of camera time.
 // The sequence localized on the map from its first frame, frame after frame:
 // the camera-to-world pose of each frame tracked, by frame index.
 std::map<size_t, rrslam::Rigid3d> LocalizeContinuously(const LoadedMap& m,
@@ -385,6 +374,17 @@ struct SweepReference {
   }
 };
 
+// Every `stride`-th frame of the sequence starts a tracker lost on the map,
+// as `--load-map --localization-only` starts: that frame makes one
+// relocalization attempt, timed as rrslam-track times it (the frame's bag of
+// words, candidates, BoW matching, PnP RANSAC, pose optimization, projection
+// searches; feature extraction excluded), and its pose, when relocalized, is
+// compared with the ground truth in the map's frame (`alignment`: the ground
+// truth aligned on the mapping run) and with the pose the map gives that
+// frame when the whole sequence is localized on it continuously (the
+// relocalization's own error, without the map's). When it fails, the next
+// frames are tracked for up to 1 s of their timestamps: whether a start
+// finds its pose within a second of camera time.
 RelocalizationSweep SweepRelocalization(const LoadedMap& m, const ExtractedFrames& frames,
                                         int split, int stride, const rrslam::Trajectory& gt,
                                         const rrslam::AteAlignment& alignment,
@@ -892,8 +892,6 @@ void AddDatabaseBuild(const rrslam::Map& live, const rrslam::Vocabulary& vocabul
   report->Add(s, {"BoW recomputed from descriptors instead", bow_ms, "ms", "-", true});
 }
 
-// In process: load -> save byte-identical; keyframe database from the
-// stored bags of words vs. from the descriptors.
 // Where a map's distractor points come from (AddDistractors): the next
 // real sequence, another place; with one real sequence, the foreign scene.
 fs::path DistractorSource(const Options& o, const RealSequence& seq) {
@@ -905,6 +903,8 @@ fs::path DistractorSource(const Options& o, const RealSequence& seq) {
   return o.foreign;
 }
 
+// In process: load -> save byte-identical; keyframe database from the
+// stored bags of words vs. from the descriptors.
 void MeasureInProcess(const RealSequence& seq, const Reference& ref, Bench* bench) {
   const std::string& s = seq.name;
   const int reloc_stride = bench->options.reloc_stride;

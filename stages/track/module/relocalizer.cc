@@ -202,8 +202,7 @@ bool RelocalizationOptions::Check(std::string* why) const {
     return fail("local_map.keyframes = " + std::to_string(l.keyframes) + "; must be >= 1");
   }
   if (!(l.search_radius > 0)) {
-    return fail("local_map.search_radius = " + std::to_string(l.search_radius) +
-                "; must be > 0");
+    return fail("local_map.search_radius = " + std::to_string(l.search_radius) + "; must be > 0");
   }
   if (l.rounds < 1) {
     return fail("local_map.rounds = " + std::to_string(l.rounds) + "; must be >= 1");
@@ -277,15 +276,12 @@ std::vector<MapPoint*> LocalMapPoints(const Frame& frame, int max_keyframes) {
   for (const auto& [id, kf] : voters) {
     for (KeyFrame* n : kf->BestCovisible(kCovisibleNeighbours)) take(n);
   }
-  std::set<MapPoint*> matched(frame.map_points.begin(), frame.map_points.end());
-  std::set<MapPointId> seen;
+  // The frame's matched points count as seen already.
+  std::set<const MapPoint*> seen(frame.map_points.begin(), frame.map_points.end());
   std::vector<MapPoint*> points;
   for (KeyFrame* kf : keyframes) {
     for (MapPoint* p : kf->map_points()) {
-      if (p == nullptr || p->bad() || matched.count(p) > 0 || !seen.insert(p->id()).second) {
-        continue;
-      }
-      points.push_back(p);
+      if (p != nullptr && !p->bad() && seen.insert(p).second) points.push_back(p);
     }
   }
   return points;
@@ -335,19 +331,18 @@ int Relocalizer::OptimizeInliers(Frame* frame, SolveCounts* solves) const {
 
 int Relocalizer::Verify(Frame* frame, const KeyFrame& kf, SolveCounts* solves) const {
   const Matcher projection_matcher(sensor_, 0.9, true);
-  auto optimize = [&]() { return OptimizeInliers(frame, solves); };
-  int good = optimize();
+  int good = OptimizeInliers(frame, solves);
   if (good < options_.min_pose_inliers) return 0;
   // Few inliers: more of the keyframe's points, by projection, in a coarse
   // window, then (when close) in a narrow one.
   if (good < options_.min_inliers) {
     const int added = projection_matcher.SearchByProjection(frame, kf, MatchedIds(*frame), 10, 100);
     if (added + good >= options_.min_inliers) {
-      good = optimize();
+      good = OptimizeInliers(frame, solves);
       if (good > 30 && good < options_.min_inliers) {
         const int more =
             projection_matcher.SearchByProjection(frame, kf, MatchedIds(*frame), 3, 64);
-        if (good + more >= options_.min_inliers) good = optimize();
+        if (good + more >= options_.min_inliers) good = OptimizeInliers(frame, solves);
       }
     }
   }
