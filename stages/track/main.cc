@@ -66,15 +66,17 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
                "With --load-map: localize in the map without changing it (ORB-SLAM2's "
                "localization mode: visual odometry where the map is not seen)");
   app.add_option("--changed-point-views", o->local_mapping.changed_point_min_views,
-                 "Restore mapping: cull a loaded point predicted visible in this many frames "
-                 "but found in fewer than --changed-point-ratio of them (0 = never)")
+                 "Restore mapping: cull a loaded point as changed when predicted visible in "
+                 "this many frames, found in fewer than --changed-point-ratio of them, and "
+                 "seen through by their depth images (--changed-point-absent); 0 = never")
       ->capture_default_str();
   app.add_option("--changed-point-ratio", o->local_mapping.changed_point_min_found_ratio,
                  "Restore mapping: see --changed-point-views; in [0, 1]")
       ->capture_default_str();
   app.add_option("--changed-point-absent", o->local_mapping.changed_point_min_absent,
-                 "Restore mapping: ... and seen through (a keypoint at its pixel measured a "
-                 "depth clearly beyond it) in at least this many frames")
+                 "Restore mapping: ... seen through (the depth image measured only depths "
+                 "beyond it, by max(10 cm, 15%), round its pixel) from at least this many "
+                 "viewpoints 5 cm apart, and in 3x as many frames as it measured a surface there")
       ->capture_default_str();
   // Departures from ORB-SLAM2; docs/track.md gives the measurements.
   app.add_option("--close-tracked", o->tracker.close_tracked,

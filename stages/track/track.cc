@@ -49,6 +49,9 @@ namespace {
 
 // Loads the images of the frames to track on a thread of its own, a few
 // frames ahead of the tracker (loading is I/O and decoding, not tracking).
+// Tracking cached features needs no gray image: `camera_size` given, only
+// the depth is loaded (restore mapping's change evidence) and checked to be
+// of that size.
 class ImagePrefetcher {
  public:
   struct Images {
@@ -58,10 +61,11 @@ class ImagePrefetcher {
   };
 
   ImagePrefetcher(const RgbdSequence& sequence, std::vector<size_t> frames, double depth_map_factor,
-                  size_t capacity = 4)
+                  std::optional<cv::Size> camera_size = std::nullopt, size_t capacity = 4)
       : sequence_(sequence),
         frames_(std::move(frames)),
         depth_map_factor_(depth_map_factor),
+        camera_size_(camera_size),
         capacity_(capacity),
         thread_([this] { Run(); }) {}
 
@@ -103,9 +107,13 @@ class ImagePrefetcher {
       try {
         const auto start = SteadyClock::now();
         const size_t i = frames_[k];
-        slot.images.gray = sequence_.LoadGray(i);
         const cv::Mat depth_raw = sequence_.LoadDepthRaw(i);
-        CheckSameSize(slot.images.gray, depth_raw, sequence_.frame(i).depth_path);
+        if (camera_size_) {
+          CheckCameraSize(depth_raw, sequence_.frame(i).depth_path);
+        } else {
+          slot.images.gray = sequence_.LoadGray(i);
+          CheckSameSize(slot.images.gray, depth_raw, sequence_.frame(i).depth_path);
+        }
         depth_raw.convertTo(slot.images.depth_metres, CV_32F, 1.0 / depth_map_factor_);
         slot.images.load_ms = MillisecondsSince(start);
       } catch (...) {
@@ -121,9 +129,19 @@ class ImagePrefetcher {
     }
   }
 
+  void CheckCameraSize(const cv::Mat& depth, const std::filesystem::path& path) const {
+    if (depth.size() != *camera_size_) {
+      throw DataError(path.string() + ": depth is " + std::to_string(depth.cols) + "x" +
+                      std::to_string(depth.rows) + " but the features' camera is " +
+                      std::to_string(camera_size_->width) + "x" +
+                      std::to_string(camera_size_->height));
+    }
+  }
+
   const RgbdSequence& sequence_;
   const std::vector<size_t> frames_;
   const double depth_map_factor_;
+  const std::optional<cv::Size> camera_size_;
   const size_t capacity_;
   std::mutex mutex_;
   std::condition_variable cv_;
@@ -515,6 +533,10 @@ class TrackSession {
       prefetcher_ =
           std::make_unique<ImagePrefetcher>(sequence_, frames_, settings_.depth_map_factor);
       extractor_ = std::make_unique<OrbExtractor>(settings_.orb, options_.extraction_threads);
+    } else if (tracker_options_.restore_mapping) {
+      const cv::Size camera_size(sensor_->camera.width(), sensor_->camera.height());
+      prefetcher_ = std::make_unique<ImagePrefetcher>(sequence_, frames_,
+                                                      settings_.depth_map_factor, camera_size);
     }
     tracking_ms_.reserve(frames_.size());
     ProgressBar progress("track", frames_.size(), "frame");
@@ -546,7 +568,8 @@ class TrackSession {
       const auto ds = features_.FrameDescriptors(first_kept_ + k);
       keypoints.assign(kps.begin(), kps.end());
       descriptors.assign(ds.begin(), ds.end());
-    } else {
+    }
+    if (prefetcher_) {
       ImagePrefetcher::Images images = prefetcher_->Next();
       loading_ms_.push_back(images.load_ms);
       gray = std::move(images.gray);
@@ -562,6 +585,7 @@ class TrackSession {
     }
     Frame frame(k, timestamp,
                 BuildFrameFeatures(*sensor_, std::move(keypoints), std::move(descriptors)));
+    if (tracker_options_.restore_mapping) frame.depth_metres = std::move(depth);
     bool new_keyframe = false;
     const bool tracked = tracker_->Track(std::move(frame), &new_keyframe);
     TrackStartup& startup = summary_.startup;

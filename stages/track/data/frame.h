@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <opencv2/core/mat.hpp>
 #include <span>
 #include <vector>
 
@@ -127,6 +128,11 @@ class Frame : public View {
 
   // Keyframe this frame's pose is expressed against in the trajectory.
   KeyFrame* reference_keyframe = nullptr;
+
+  // Restore mapping: the image's depth in metres (CV_32F, real image pixels
+  // as stored, 0 = none) for the change evidence (depth_evidence.h); empty
+  // in every other mode, where only the keypoints' depths are kept.
+  cv::Mat depth_metres;
 
  private:
   uint64_t id_ = 0;

@@ -21,6 +21,15 @@ int MapPoint::IndexIn(const KeyFrame* keyframe) const {
   return -1;
 }
 
+void MapPoint::AddSeenThrough(const Eigen::Vector3d& camera_centre) {
+  if (evidence_.seen_through_views == 0 ||
+      (camera_centre - evidence_.last_view_centre).norm() >= kDistinctViewMetres) {
+    ++evidence_.seen_through_views;
+    evidence_.last_view_centre = camera_centre;
+  }
+  ++evidence_.seen_through;
+}
+
 void MapPoint::AddObservation(KeyFrame* keyframe, uint32_t index) {
   auto it =
       std::lower_bound(observations_.begin(), observations_.end(), keyframe->id(),

@@ -120,15 +120,25 @@ class MapPoint {
   void StartSession() {
     session_visible_base_ = visible_;
     session_found_base_ = found_;
+    evidence_ = {};
   }
   int SessionVisible() const { return visible_ - session_visible_base_; }
   int SessionFound() const { return found_ - session_found_base_; }
-  // Times a tracked frame of this run saw through the point: predicted
-  // visible, not matched, and a keypoint at its pixel measured a clearly
-  // larger depth (the point is no longer there; an occluded point is not
-  // counted). Not saved.
-  int absent() const { return absent_; }
-  void IncreaseAbsent() { ++absent_; }
+  // What this run's depth images said where the point was predicted and
+  // not matched (DepthEvidenceAt; Tracker::CountChangeEvidence). Not saved.
+  struct SessionEvidence {
+    int present = 0;       // Frames that measured a surface at its depth.
+    int seen_through = 0;  // Frames that measured only depths beyond it.
+    // Of those, from camera centres at least kDistinctViewMetres from the
+    // last one counted: the same view again repeats its errors (a mixed
+    // pixel at an edge, a reflection), a distinct one does not.
+    int seen_through_views = 0;
+    Eigen::Vector3d last_view_centre = Eigen::Vector3d::Zero();
+  };
+  static constexpr double kDistinctViewMetres = 0.05;
+  const SessionEvidence& evidence() const { return evidence_; }
+  void AddPresent() { ++evidence_.present; }
+  void AddSeenThrough(const Eigen::Vector3d& camera_centre);
 
  private:
   MapPointId id_;
@@ -145,7 +155,7 @@ class MapPoint {
   int found_ = 1;
   int session_visible_base_ = 0;
   int session_found_base_ = 0;
-  int absent_ = 0;
+  SessionEvidence evidence_;
   bool bad_ = false;
   MapPoint* replaced_by_ = nullptr;
 };

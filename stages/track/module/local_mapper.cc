@@ -303,7 +303,8 @@ bool IsChangedPoint(const MapPoint& point, const LocalMapperOptions& options) {
   const int views = point.SessionVisible();
   return options.changed_point_min_views > 0 && views >= options.changed_point_min_views &&
          point.SessionFound() < options.changed_point_min_found_ratio * views &&
-         point.absent() >= options.changed_point_min_absent;
+         point.evidence().seen_through_views >= options.changed_point_min_absent &&
+         point.evidence().seen_through >= kSeenThroughPerPresent * point.evidence().present;
 }
 
 void LocalMapper::WatchLoadedPoints(const std::vector<MapPoint*>& points) {

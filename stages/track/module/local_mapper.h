@@ -44,14 +44,19 @@ struct LocalMapperOptions {
   double culling_redundancy = 0.9;    // Fraction of close points that must be redundant.
   int bow_levels_up = 4;              // Feature-vector grouping (TrackerOptions::bow_levels_up).
   LocalBundleAdjustmentOptions bundle_adjustment;
-  // Restore mapping (a map loaded from a file, mapped on): a loaded point
-  // that this run predicted visible in at least `changed_point_min_views`
-  // tracked frames, found in fewer than `changed_point_min_found_ratio` of
-  // them, and seen through in at least `changed_point_min_absent` of them
-  // (MapPoint::absent) is culled at the next keyframe: the scene changed
-  // there. (Visibility alone cannot tell a removed point from an occluded
-  // one: both are predicted visible and not found.) 0 views: loaded points
-  // are culled only as any other point. Views and absent >= 0, the ratio in
+  // Restore mapping (a map loaded from a file, mapped on): a loaded point is
+  // culled as changed at the next keyframe only on positive evidence that
+  // it is gone: this run predicted it visible in at least
+  // `changed_point_min_views` tracked frames, found it in fewer than
+  // `changed_point_min_found_ratio` of them, and the frames' depth images
+  // saw through where it was (DepthEvidenceAt) from at least
+  // `changed_point_min_absent` distinct viewpoints
+  // (MapPoint::kDistinctViewMetres apart), in at least
+  // kSeenThroughPerPresent times as many frames as they measured a surface
+  // there. Failed matches alone never cull a loaded point: blur, lighting
+  // and another viewing angle make ORB miss points that are still there,
+  // and an occluded point is not seen through. 0 views: loaded points are
+  // culled only as any other point. Views and viewpoints >= 0, the ratio in
   // [0, 1]. Only loaded points are judged (LocalMapper::WatchLoadedPoints).
   int changed_point_min_views = 20;
   double changed_point_min_found_ratio = 0.25;
@@ -62,7 +67,10 @@ struct LocalMapperOptions {
 };
 
 // Restore mapping: true when a loaded point is to be culled as changed (see
-// LocalMapperOptions::changed_point_min_views).
+// LocalMapperOptions::changed_point_min_views). The depth images must see
+// through the point at least this many times as often as they measure a
+// surface at its depth: a point that some frames confirm is kept.
+inline constexpr int kSeenThroughPerPresent = 3;
 bool IsChangedPoint(const MapPoint& point, const LocalMapperOptions& options);
 
 // What happens to a recently created map point at a new keyframe.

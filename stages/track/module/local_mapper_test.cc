@@ -38,9 +38,10 @@ TEST_F(CullingTest, RecentPointsRarelyFoundAreCulled) {
 }
 
 // Restore mapping: a loaded point is changed when this run predicted it
-// visible often, rarely found it, and saw through it; views and finds before
-// the run (StartSession) do not count.
-TEST_F(CullingTest, LoadedPointIsChangedWhenSeenThroughAndRarelyFound) {
+// visible often, rarely found it, and its depth images saw through it from
+// distinct viewpoints more often than they measured a surface there; views
+// and finds before the run (StartSession) do not count.
+TEST_F(CullingTest, LoadedPointIsChangedOnlyWhenSeenThroughFromDistinctViews) {
   KeyFrame* k0 = AddKeyFrame();
   KeyFrame* k1 = AddKeyFrame();
   MapPoint* point = MakeObservedPoint(&map_, {k0, k1}, {0, 0});
@@ -55,10 +56,23 @@ TEST_F(CullingTest, LoadedPointIsChangedWhenSeenThroughAndRarelyFound) {
   point->IncreaseFound(4);  // 20 % of this run's views.
   EXPECT_EQ(point->SessionVisible(), 20);
   EXPECT_EQ(point->SessionFound(), 4);
-  EXPECT_FALSE(IsChangedPoint(*point, options));  // Never seen through: occluded.
-  for (int i = 0; i < 3; ++i) point->IncreaseAbsent();
+  // Not found but never seen through (blurred, occluded): kept.
+  EXPECT_FALSE(IsChangedPoint(*point, options));
+  // Seen through 6 times from 10 cm of travel (a depth error repeats
+  // there): two viewpoints, kept.
+  for (int i = 0; i < 6; ++i) point->AddSeenThrough({0.02 * i, 0, 0});
+  EXPECT_EQ(point->evidence().seen_through, 6);
+  EXPECT_EQ(point->evidence().seen_through_views, 2);  // At 0 and 6 cm.
+  EXPECT_FALSE(IsChangedPoint(*point, options));
+  point->AddSeenThrough({0.2, 0, 0});  // A third viewpoint: changed.
+  EXPECT_EQ(point->evidence().seen_through_views, 3);
   EXPECT_TRUE(IsChangedPoint(*point, options));
-  point->IncreaseFound(2);  // 30 %.
+  // Frames that measured a surface at its depth outweigh the see-through ones.
+  for (int i = 0; i < 3; ++i) point->AddPresent();
+  EXPECT_FALSE(IsChangedPoint(*point, options));  // 7 < 3 x 3.
+  for (int i = 0; i < 2; ++i) point->AddSeenThrough({0.2, 0, 0});
+  EXPECT_TRUE(IsChangedPoint(*point, options));  // 9 >= 3 x 3.
+  point->IncreaseFound(2);                       // 30 %.
   EXPECT_FALSE(IsChangedPoint(*point, options));
   options.changed_point_min_found_ratio = 0.5;
   EXPECT_TRUE(IsChangedPoint(*point, options));
@@ -66,6 +80,9 @@ TEST_F(CullingTest, LoadedPointIsChangedWhenSeenThroughAndRarelyFound) {
   EXPECT_FALSE(IsChangedPoint(*point, options));
   options.changed_point_min_views = 0;  // Off.
   EXPECT_FALSE(IsChangedPoint(*point, options));
+  point->StartSession();  // A new run forgets the evidence.
+  EXPECT_EQ(point->evidence().seen_through, 0);
+  EXPECT_EQ(point->evidence().present, 0);
 }
 
 TEST_F(CullingTest, RecentPointsNeedMoreThanThreeObservationsAfterTwoKeyFrames) {

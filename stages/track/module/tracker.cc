@@ -8,6 +8,7 @@
 #include <map>
 
 #include "common/clock.h"
+#include "stages/track/data/depth_evidence.h"
 #include "stages/track/optimize/optimizer.h"
 
 namespace rrslam {
@@ -63,7 +64,7 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
     }
     current_.reference_keyframe = reference_keyframe_;
     if (ok && !vo_) ok = TrackLocalMap();
-    if (ok && options_.restore_mapping) CountAbsentPoints();
+    if (ok && options_.restore_mapping) CountChangeEvidence();
     if (ok && vo_) ++visual_odometry_frames_;
     if (ok && was_lost) ++relocalizations_;
     state_ = ok ? State::kOk : State::kLost;
@@ -152,34 +153,30 @@ void Tracker::StartOnLoadedMap() {
   options_.reset_max_keyframes = -1;
 }
 
-void Tracker::CountAbsentPoints() {
-  // A keypoint at the point's pixel whose depth exceeds the point's by this
-  // much (metres, and relative: Kinect-like noise grows with depth) sees
-  // through it.
-  constexpr double kMinGapMetres = 0.1, kMinGapRelative = 0.05;
-  constexpr double kRadiusPixels = 3.0;
+void Tracker::CountChangeEvidence() {
+  if (current_.depth_metres.empty()) return;
   const uint64_t stamp = current_.id() + 1;
   for (const MapPoint* point : current_.map_points) {
     if (point != nullptr) MarkSeen(point, stamp);
   }
-  const FrameFeatures& f = current_.features();
   const Eigen::Matrix3d& R = current_.R_cam_world();
   const Eigen::Vector3d& t = current_.T_cam_world().translation;
   const Eigen::Vector3d& centre = current_.camera_centre();
-  std::vector<uint32_t> nearby;
   for (MapPoint* point : local_points_) {
     if (point->bad() || seen_mark_[point->id()] == stamp) continue;
     ProjectedPoint pp;
     if (!ProjectIntoView(sensor_, R, t, centre, point, 0.5, &pp)) continue;
-    const double z = (R * point->position_world() + t).z();
-    const double gap = std::max(kMinGapMetres, kMinGapRelative * z);
-    nearby.clear();
-    f.FeaturesInArea(sensor_, pp.u, pp.v, kRadiusPixels, 0, -1, &nearby);
-    for (uint32_t i : nearby) {
-      if (f.HasDepth(i) && f.Depth(i) > z + gap) {
-        point->IncreaseAbsent();
+    const Eigen::Vector3d point_cam = R * point->position_world() + t;
+    const Eigen::Vector2d pixel = sensor_.camera.ProjectDistorted(point_cam);
+    switch (DepthEvidenceAt(current_.depth_metres, pixel, point_cam.z())) {
+      case DepthEvidence::kPresent:
+        point->AddPresent();
         break;
-      }
+      case DepthEvidence::kSeenThrough:
+        point->AddSeenThrough(centre);
+        break;
+      case DepthEvidence::kNone:
+        break;
     }
   }
 }

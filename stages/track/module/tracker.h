@@ -90,8 +90,9 @@ struct TrackerOptions {
   // relocalization tried on every frame until the map is seen again.
   bool localization_only = false;
   // Restore mapping (a loaded map mapped on; not ORB-SLAM2, which cannot load
-  // maps): local points the frame sees through are counted
-  // (MapPoint::absent, for LocalMapperOptions::changed_point_min_absent),
+  // maps): what the frame's depth image (Frame::depth_metres) says about the
+  // local points it predicts visible and did not match is counted
+  // (MapPoint::evidence, for LocalMapperOptions::changed_point_min_absent),
   // and a keyframe is also made when max_keyframe_gap frames passed since
   // the last one and more than close_untracked close keypoints are not
   // tracked. ORB-SLAM2's rule waits for the tracked points to drop, which a
@@ -173,9 +174,9 @@ class Tracker {
   // Localization only (ORB-SLAM2's UpdateLastFrame for RGB-D): temporary
   // points for the last frame's close keypoints without a map point.
   void AddTemporaryPoints();
-  // Restore mapping: counts the local points the frame sees through
-  // (MapPoint::absent).
-  void CountAbsentPoints();
+  // Restore mapping: what the frame's depth image says about the local
+  // points it predicts visible and did not match (MapPoint::evidence).
+  void CountChangeEvidence();
   // The tracking step of localization mode; returns whether it gave a pose.
   bool TrackLocalizationOnly();
   // Marks a point as handled in the current frame's local-map search.
