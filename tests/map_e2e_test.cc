@@ -267,6 +267,74 @@ TEST_F(MapPipelineTest, ColdStartFromAViewFortyDegreesFromEveryMappedFrame) {
   EXPECT_LT(RotationAngle(found.rotation, truth.rotation) * 180 / M_PI, 2.0);
 }
 
+// Offline merge (rrslam-mapstore merge): the loop mapped as two maps, frames
+// 0-69 and 50-119, each in its own world frame (its first frame's camera).
+// Merged, the second moves into the first's frame, which is the whole-loop
+// map's too (both start at frame 0): localized in the merged map, frames
+// 50-119 get the whole-loop map's poses within 2 cm. A map of another room
+// is refused with exit 75, a camera that differs with exit 65; no output is
+// written either time.
+TEST_F(MapPipelineTest, OfflineMergeWeldsTwoHalvesInTheFirstMapsFrame) {
+  const fs::path a = path("first-half.rrm"), b = path("second-half.rrm");
+  ASSERT_EQ(Track(path("first-half"), "--max-frames 70 --save-map " + Quote(a)).exit_code, 0);
+  ASSERT_EQ(Track(path("second-half"), "--first-frame 50 --save-map " + Quote(b)).exit_code, 0);
+  const std::string common =
+      " --vocab " + Quote(vocab()) + " --settings " + Quote(settings()) + " --out ";
+  const fs::path merged = path("merged.rrm");
+  auto r =
+      testing::RunTool("mapstore", "merge " + Quote(a) + " " + Quote(b) + common + Quote(merged));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("transform B -> A"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("points fused"), std::string::npos) << r.output;
+  EXPECT_EQ(testing::RunTool("mapstore", "verify " + Quote(merged)).exit_code, 0);
+
+  const fs::path out = path("merged-localization");
+  r = Track(out, "--load-map " + Quote(merged) + " --localization-only --first-frame 50");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Trajectory whole = ReadTumTrajectory(path("mapping") / "CameraTrajectory.txt");
+  const Trajectory localized = ReadTumTrajectory(out / "CameraTrajectory.txt");
+  ASSERT_EQ(localized.size(), static_cast<size_t>(kFrames - 50));
+  double worst = 0;
+  for (size_t k = 0; k < localized.size(); ++k) {
+    ASSERT_NEAR(whole[50 + k].timestamp, localized[k].timestamp, 1e-6);
+    worst = std::max(
+        worst,
+        (whole[50 + k].T_world_cam.translation - localized[k].T_world_cam.translation).norm());
+  }
+  EXPECT_LT(worst, 0.02);
+
+  // Another room (another seed), same camera and vocabulary: no overlap.
+  const fs::path other = path("other-room");
+  ASSERT_EQ(testing::RunTool("synth", "--quiet --out " + Quote(other) +
+                                          " --width 320 --height 240 --trajectory loop "
+                                          "--frames 40 --seed 11")
+                .exit_code,
+            0);
+  const fs::path c = path("other-room.rrm");
+  r = testing::RunTool("track", "--quiet --sequence " + Quote(other) + " --settings " +
+                                    Quote(settings()) + " --vocab " + Quote(vocab()) + " --out " +
+                                    Quote(path("other-room-track")) + " --save-map " + Quote(c));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = testing::RunTool("mapstore",
+                       "merge " + Quote(a) + " " + Quote(c) + common + Quote(path("none.rrm")));
+  EXPECT_EQ(r.exit_code, 75) << r.output;
+  EXPECT_NE(r.output.find("no overlap"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(path("none.rrm")));
+
+  std::string yaml = ReadFileToString(settings());
+  const size_t fx = yaml.find("Camera.fx:");
+  ASSERT_NE(fx, std::string::npos);
+  yaml.replace(fx, yaml.find('\n', fx) - fx, "Camera.fx: 300.0");
+  testing::WriteTextFile(path("other-camera.yaml"), yaml);
+  r = testing::RunTool("mapstore", "merge " + Quote(a) + " " + Quote(b) + " --vocab " +
+                                       Quote(vocab()) + " --settings " +
+                                       Quote(path("other-camera.yaml")) + " --out " +
+                                       Quote(path("none.rrm")));
+  EXPECT_EQ(r.exit_code, 65) << r.output;
+  EXPECT_NE(r.output.find("Camera.fx"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(path("none.rrm")));
+}
+
 // Bad map inputs: one line naming the file and the problem, the documented
 // exit code, and no output folder.
 TEST_F(MapPipelineTest, BadMapsAreRefused) {

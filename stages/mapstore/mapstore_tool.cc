@@ -127,7 +127,7 @@ void RunMapstoreCommand(const MapstoreCommands& c) {
   } else if (c.chosen == "diff") {
     RunMapDiff(c.diff);
   } else {
-    throw UsageError("a command is required: info, verify or diff");
+    throw UsageError("a command is required: info, verify, diff or merge");
   }
 }
 

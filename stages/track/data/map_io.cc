@@ -12,26 +12,11 @@
 #include "common/text.h"
 #include "common/worker_pool.h"
 #include "stages/mapstore/map_file.h"
+#include "stages/mapstore/map_join.h"
 #include "stages/track/data/frame.h"
 
 namespace rrslam {
 namespace {
-
-MapPose ToMapPose(const Rigid3d& T) {
-  MapPose p;
-  p.qw = T.rotation.w();
-  p.qx = T.rotation.x();
-  p.qy = T.rotation.y();
-  p.qz = T.rotation.z();
-  p.tx = T.translation.x();
-  p.ty = T.translation.y();
-  p.tz = T.translation.z();
-  return p;
-}
-
-Rigid3d FromMapPose(const MapPose& p) {
-  return Rigid3d(Eigen::Quaterniond(p.qw, p.qx, p.qy, p.qz), Eigen::Vector3d(p.tx, p.ty, p.tz));
-}
 
 std::string Number(double v) {
   char buffer[32];
@@ -106,7 +91,7 @@ MapData ToMapData(const Map& map, const MapCamera& camera, const Vocabulary& voc
     r.id = kf->id();
     r.frame_id = kf->frame_id();
     r.timestamp = kf->timestamp();
-    r.T_cam_world = ToMapPose(kf->T_cam_world());
+    r.T_cam_world = MapPoseOf(kf->T_cam_world());
     const FrameFeatures& f = kf->features();
     r.keypoints.resize(f.size());
     r.map_point_ids.assign(f.size(), kNoId);
@@ -261,7 +246,7 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
     Frame& frame = frames[k].emplace(
         r.frame_id, r.timestamp,
         BuildFrameFeatures(sensor, std::move(keypoints), std::move(r.descriptors)));
-    frame.SetPose(FromMapPose(r.T_cam_world));
+    frame.SetPose(RigidOf(r.T_cam_world));
     if (recompute_bow) {
       frame.ComputeBow(vocabulary, bow_levels_up);
     } else {

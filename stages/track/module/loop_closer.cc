@@ -198,13 +198,20 @@ bool LoopCloser::DetectLoop(KeyFrame* keyframe) {
 
 bool LoopCloser::CheckCandidate(KeyFrame* keyframe, KeyFrame* candidate,
                                 LoopCandidateMatch* match) const {
+  return CheckLoopCandidate(sensor_, options_, map_->num_created_map_points(), keyframe, candidate,
+                            match);
+}
+
+bool CheckLoopCandidate(const SensorModel& sensor, const LoopClosingOptions& options,
+                        size_t num_point_ids, KeyFrame* keyframe, KeyFrame* candidate,
+                        LoopCandidateMatch* match) {
   *match = {};
   if (candidate->bad()) return false;
-  const Matcher bow_matcher(sensor_, options_.bow_ratio, true);
-  const Matcher guided_matcher(sensor_, 0.75, true);
+  const Matcher bow_matcher(sensor, options.bow_ratio, true);
+  const Matcher guided_matcher(sensor, 0.75, true);
   std::vector<MapPoint*> matches;
   match->bow_matches = bow_matcher.SearchByBow(*keyframe, *candidate, &matches);
-  if (match->bow_matches < options_.min_bow_matches) return false;
+  if (match->bow_matches < options.min_bow_matches) return false;
 
   // Correspondences with both points observed where they were matched.
   std::vector<size_t> index;
@@ -219,14 +226,14 @@ bool LoopCloser::CheckCandidate(KeyFrame* keyframe, KeyFrame* candidate,
     index.push_back(i);
     points1.push_back(keyframe->ToCamera(p1->position_world()));
     points2.push_back(candidate->ToCamera(p2->position_world()));
-    sigma2_1.push_back(sensor_.pyramid.sigma2[keyframe->features().Octave(i)]);
-    sigma2_2.push_back(sensor_.pyramid.sigma2[candidate->features().Octave(i2)]);
+    sigma2_1.push_back(sensor.pyramid.sigma2[keyframe->features().Octave(i)]);
+    sigma2_2.push_back(sensor.pyramid.sigma2[candidate->features().Octave(i2)]);
   }
   Eigen::Matrix3d K;
-  K << sensor_.fx, 0, sensor_.cx, 0, sensor_.fy, sensor_.cy, 0, 0, 1;
+  K << sensor.fx, 0, sensor.cx, 0, sensor.fy, sensor.cy, 0, 0, 1;
   const uint64_t seed = (keyframe->id() << 20) ^ candidate->id();
   const RigidRansacResult ransac =
-      SolveRigidRansac(points1, points2, sigma2_1, sigma2_2, K, options_.ransac, seed);
+      SolveRigidRansac(points1, points2, sigma2_1, sigma2_2, K, options.ransac, seed);
   match->ransac_inliers = ransac.inliers;
   if (!ransac.ok) return false;
 
@@ -235,18 +242,18 @@ bool LoopCloser::CheckCandidate(KeyFrame* keyframe, KeyFrame* candidate,
     if (ransac.inlier[k]) inlier_matches[index[k]] = matches[index[k]];
   }
   Rigid3d T_12 = ransac.T_12;
-  guided_matcher.SearchByRelativePose(*keyframe, *candidate, T_12, options_.guided_radius,
+  guided_matcher.SearchByRelativePose(*keyframe, *candidate, T_12, options.guided_radius,
                                       &inlier_matches);
-  match->inliers = OptimizeRelativePose(sensor_, *keyframe, *candidate, &inlier_matches, &T_12,
-                                        options_.relative_pose_chi2);
-  if (match->inliers < options_.min_optimized_inliers) return false;
+  match->inliers = OptimizeRelativePose(sensor, *keyframe, *candidate, &inlier_matches, &T_12,
+                                        options.relative_pose_chi2);
+  if (match->inliers < options.min_optimized_inliers) return false;
 
   match->matched = candidate;
   match->T_cam_world = T_12 * candidate->T_cam_world();
   // The map points around the candidate, projected with the corrected pose.
   std::vector<KeyFrame*> loop_keyframes = candidate->covisible();
   loop_keyframes.push_back(candidate);
-  std::vector<uint8_t> taken(map_->num_created_map_points(), 0);
+  std::vector<uint8_t> taken(num_point_ids, 0);
   for (KeyFrame* kf : loop_keyframes) {
     if (kf->bad()) continue;
     for (MapPoint* point : kf->map_points()) {
@@ -256,7 +263,7 @@ bool LoopCloser::CheckCandidate(KeyFrame* keyframe, KeyFrame* candidate,
     }
   }
   guided_matcher.SearchByProjection(*keyframe, match->T_cam_world, match->loop_points,
-                                    options_.projection_radius, &inlier_matches);
+                                    options.projection_radius, &inlier_matches);
   match->matches = static_cast<int>(std::count_if(inlier_matches.begin(), inlier_matches.end(),
                                                   [](MapPoint* p) { return p != nullptr; }));
   match->matched_points = std::move(inlier_matches);

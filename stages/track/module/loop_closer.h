@@ -120,6 +120,15 @@ struct LoopCandidateMatch {
   int matches = 0;         // After the projection search; the loop needs min_loop_matches.
 };
 
+// Step 2 for one candidate (the caller holds the map lock): true when it
+// passes the relative-pose optimization, then `match` has the projection
+// search's matches too (a loop needs options.min_loop_matches of them).
+// `num_point_ids`: Map::num_created_map_points() of the candidate's map.
+// The keyframe may belong to another map than the candidate (map_merger.h).
+bool CheckLoopCandidate(const SensorModel& sensor, const LoopClosingOptions& options,
+                        size_t num_point_ids, KeyFrame* keyframe, KeyFrame* candidate,
+                        LoopCandidateMatch* match);
+
 class LoopCloser {
  public:
   // All references must outlive the loop closer. `mapper` is paused during a
@@ -149,9 +158,7 @@ class LoopCloser {
   bool DetectLoop(KeyFrame* keyframe);
   // Step 2 on the accepted candidates: true when one closes the loop.
   bool ComputeLoopTransform(KeyFrame* keyframe);
-  // Step 2 for one candidate (the caller holds the map lock): true when it
-  // passes the relative-pose optimization, then `match` has the projection
-  // search's matches too (the loop needs min_loop_matches of them).
+  // Step 2 for one candidate: CheckLoopCandidate on this map.
   bool CheckCandidate(KeyFrame* keyframe, KeyFrame* candidate, LoopCandidateMatch* match) const;
   // Step 3 (and 4 in batch mode).
   void CorrectLoop(KeyFrame* keyframe);

@@ -13,7 +13,7 @@ MapRefinementStats RefineMap(const SensorModel& sensor, Map* map,
   passes.second_iterations = options.final_steps;
   passes.depth_fallback = options.depth_fallback;
   LocalBundleAdjuster adjuster(sensor, passes);
-  adjuster.CollectAll(*map);
+  adjuster.CollectAll(*map, options.first_free_keyframe);
   adjuster.Solve();
   adjuster.Apply(map);
   const LocalBundleAdjustmentStats& s = adjuster.stats();

@@ -32,6 +32,9 @@ struct MapRefinementOptions {
   int final_steps = 100;
   // As LocalBundleAdjustmentOptions::depth_fallback (--ba-depth-fallback).
   bool depth_fallback = false;
+  // Keyframes with smaller ids are held fixed too (a merged map: the first
+  // map's keyframes, map_merger.h); 0 = only the first keyframe.
+  KeyFrameId first_free_keyframe = 0;
 };
 
 struct MapRefinementStats {

@@ -173,10 +173,10 @@ void LocalBundleAdjuster::Collect(KeyFrame* keyframe, const Map& map) {
   CollectAround(local, map);
 }
 
-void LocalBundleAdjuster::CollectAll(const Map& map) {
+void LocalBundleAdjuster::CollectAll(const Map& map, KeyFrameId first_free) {
   std::vector<KeyFrame*> all;
   for (KeyFrame* kf : map.KeyFrames()) {
-    if (!kf->bad()) all.push_back(kf);
+    if (!kf->bad() && kf->id() >= first_free) all.push_back(kf);
   }
   whole_map_ = true;
   CollectAround(all, map);

@@ -154,8 +154,10 @@ class LocalBundleAdjuster {
 
   void Collect(KeyFrame* keyframe, const Map& map);
   // Collect for the whole map (the final refinement, map_refinement.h): every
-  // keyframe free but the map's first (gauge freedom), every map point.
-  void CollectAll(const Map& map);
+  // keyframe free but the map's first (gauge freedom) and those with ids below
+  // `first_free` (a merged map's loaded part, held fixed where it observes
+  // points of the free keyframes), every point the free keyframes observe.
+  void CollectAll(const Map& map, KeyFrameId first_free = 0);
   // `abort` (may be null) is polled between iterations; when it becomes true
   // the solver stops with the current estimate.
   void Solve(const std::atomic<bool>* abort = nullptr);
