@@ -36,6 +36,7 @@ if [[ "$group" == all ]]; then
     chromium   # headless WebGL test of that viewer (render/html_viewer)
     slurm-wlm munge  # LAUNCHER=srun: the e2e/slurm test starts a one-node Slurm of its own
     cloudcompare     # render's PLY test reads rrslam's PLY with CloudCompare's command line
+    colmap           # render's COLMAP test reads rrslam's model with COLMAP's model_analyzer
   )
 fi
 

@@ -1,5 +1,5 @@
 // rrslam-render: pictures, standard files and a browser viewer of saved maps
-// and trajectories, and a dense model.
+// and trajectories, a dense model and a COLMAP model.
 #include <CLI/CLI.hpp>
 
 #include "common/cli.h"
@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
        "  ply         map points as PLY (MeshLab, CloudCompare), coloured from the images\n"
        "  html        one offline HTML file with a 3D view of the map you can orbit\n"
        "  dense       the keyframes' depth fused into a TSDF: coloured PLY and a PNG\n"
+       "  colmap      a COLMAP sparse model (cameras, images, points3D) with the keyframe\n"
+       "              images, for Gaussian splatting, NeRF and MVS tools\n"
        "Run `rrslam-render <command> --help` for a command's flags."},
       [&](CLI::App& app) { rrslam::BindRenderCommands(app, &commands); },
       [&] { rrslam::RunRenderCommand(commands); });

@@ -5,7 +5,9 @@
 
 #include <CLI/CLI.hpp>
 #include <iostream>
+#include <set>
 
+#include "common/atomic_file.h"
 #include "common/cli.h"
 #include "common/dataset.h"
 #include "common/errors.h"
@@ -14,6 +16,7 @@
 #include "common/settings.h"
 #include "common/trajectory.h"
 #include "common/worker_pool.h"
+#include "stages/mapstore/map_file.h"
 #include "stages/render/image_file.h"
 #include "stages/render/map_scene.h"
 
@@ -287,6 +290,81 @@ std::filesystem::path RunRenderPly(const RenderPlyOptions& options) {
   return options.out;
 }
 
+bool RenderColmapOptions::Check(std::string* why) const {
+  if (map.empty() || sequence.empty() || out.empty()) {
+    *why = "--map, --sequence and --out are required";
+    return false;
+  }
+  return CheckOutputNotInput(
+      {"--out", out}, {{"--map", map}, {"--sequence", sequence}, {"--associations", associations}},
+      why);
+}
+
+namespace {
+
+// The keyframes' colour images of `sequence`, in the map's keyframe order.
+std::vector<std::filesystem::path> KeyFrameImages(const MapScene& scene,
+                                                  const RenderColmapOptions& o) {
+  SequenceOptions sequence_options;
+  sequence_options.associations = o.associations;
+  const RgbdSequence sequence = RgbdSequence::Open(o.sequence, sequence_options);
+  std::vector<double> stamps;
+  for (const RgbdFrameRef& frame : sequence.frames()) stamps.push_back(frame.rgb_timestamp);
+  std::vector<std::filesystem::path> images;
+  const std::vector<std::optional<size_t>> frames = MatchKeyFrameTimestamps(scene, stamps);
+  for (size_t k = 0; k < frames.size(); ++k) {
+    if (!frames[k]) {
+      throw DataError(fmt::format("{}: keyframe {} (t = {:.6f}) has no frame in {}", scene.source,
+                                  scene.keyframes[k].id, scene.keyframes[k].timestamp,
+                                  o.sequence.string()));
+    }
+    images.push_back(sequence.frame(*frames[k]).rgb_path);
+  }
+  return images;
+}
+
+// Image names under DIR/images: the file names, numbered when two collide.
+std::vector<std::string> ImageNames(const std::vector<std::filesystem::path>& images) {
+  std::vector<std::string> names;
+  std::set<std::string> taken;
+  for (size_t k = 0; k < images.size(); ++k) {
+    std::string name = images[k].filename().string();
+    if (!taken.insert(name).second) name = fmt::format("{:06d}-{}", k, name);
+    taken.insert(name);
+    names.push_back(name);
+  }
+  return names;
+}
+
+}  // namespace
+
+std::vector<std::filesystem::path> RunRenderColmap(const RenderColmapOptions& o) {
+  std::string why;
+  if (!o.Check(&why)) throw UsageError(why);
+  const MapData map = ReadMapFile(o.map);
+  const MapScene scene = MakeMapScene(map, o.map.string());
+  const std::vector<std::filesystem::path> images = KeyFrameImages(scene, o);
+  const std::vector<std::string> names = ImageNames(images);
+  const PlyCloud cloud = MapPointCloud(scene, o.sequence, o.associations);
+  const ColmapModel model = ColmapModelOf(map, names, cloud.colors);
+  PrepareOutputFolder(o.out);
+  const std::filesystem::path image_dir = o.out / "images", model_dir = o.out / "sparse" / "0";
+  std::error_code ec;
+  std::filesystem::create_directories(image_dir, ec);
+  std::filesystem::create_directories(model_dir, ec);
+  if (ec) throw CantCreateError(model_dir.string() + ": cannot create: " + ec.message());
+  std::vector<std::filesystem::path> written;
+  for (size_t k = 0; k < images.size(); ++k) {
+    written.push_back(image_dir / names[k]);
+    WriteFileAtomically(written.back(), ReadFileToString(images[k]));
+  }
+  WriteColmapModel(model, model_dir, o.binary);
+  written.push_back(model_dir);
+  spdlog::info("render: COLMAP model of {} images, {} points in {}", model.images.size(),
+               model.points.size(), model_dir.string());
+  return written;
+}
+
 // ---------------------------------------------------------------------------
 // Binding
 
@@ -374,6 +452,20 @@ void BindRenderCommands(CLI::App& app, RenderCommands* c) {
       "dense", "Fuse the keyframes' depth and colour into a TSDF volume: coloured PLY and PNG");
   BindDenseOptions(dense, &c->dense);
   dense->callback([c] { c->chosen = "dense"; });
+
+  CLI::App* colmap = app.add_subcommand(
+      "colmap", "The map as a COLMAP sparse model (DIR/sparse/0) with its images (DIR/images)");
+  colmap->add_option("--map", c->colmap.map, "Map file (rrslam.map)")->required();
+  colmap
+      ->add_option("--sequence", c->colmap.sequence,
+                   "Sequence folder the map was built from (keyframe images, colours)")
+      ->required();
+  colmap->add_option("--associations", c->colmap.associations,
+                     "Associations file of the sequence (as rrslam-track)");
+  colmap->add_option("--out", c->colmap.out, "Output folder (created when missing)")->required();
+  colmap->add_flag("--binary", c->colmap.binary,
+                   "cameras.bin, images.bin, points3D.bin instead of the .txt files");
+  colmap->callback([c] { c->chosen = "colmap"; });
 }
 
 void RunRenderCommand(const RenderCommands& c) {
@@ -389,8 +481,10 @@ void RunRenderCommand(const RenderCommands& c) {
     RunHtml(c.html);
   } else if (c.chosen == "dense") {
     RunDense(c.dense);
+  } else if (c.chosen == "colmap") {
+    RunRenderColmap(c.colmap);
   } else {
-    throw UsageError("a command is required: map, trajectory, ply, html or dense");
+    throw UsageError("a command is required: map, trajectory, ply, html, dense or colmap");
   }
 }
 

@@ -1,4 +1,4 @@
-// The commands of `rrslam-render`: map, trajectory, ply, html, dense. Each
+// The commands of `rrslam-render`: map, trajectory, ply, html, dense, colmap. Each
 // has an options struct (defaults, units, Check) and a Run function; main.cc
 // only binds them to CLI11 subcommands. html and dense live in html/ and
 // dense/ (html_viewer.h, dense_model.h).
@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "stages/render/colmap_model.h"
 #include "stages/render/dense/dense_model.h"
 #include "stages/render/html/html_viewer.h"
 #include "stages/render/map_picture.h"
@@ -59,12 +60,26 @@ struct RenderPlyOptions {
   bool Check(std::string* why) const;
 };
 
+// `colmap`: the map as a COLMAP sparse model (colmap_model.h):
+// DIR/sparse/0/{cameras,images,points3D}.{txt,bin} and the keyframes'
+// colour images copied to DIR/images/, COLMAP's project layout.
+struct RenderColmapOptions {
+  std::filesystem::path map;
+  std::filesystem::path sequence;      // The sequence the map was built from (images, colours).
+  std::filesystem::path associations;  // As rrslam-track's --associations.
+  std::filesystem::path out;           // Folder (created when missing).
+  bool binary = false;                 // .bin instead of .txt (--binary).
+
+  bool Check(std::string* why) const;
+};
+
 struct RenderCommands {
   RenderMapOptions map;
   RenderTrajectoryOptions trajectory;
   RenderPlyOptions ply;
   HtmlOptions html;
   DenseOptions dense;
+  RenderColmapOptions colmap;
   std::string chosen;
 };
 void BindRenderCommands(CLI::App& app, RenderCommands* commands);
@@ -76,6 +91,7 @@ void RunRenderCommand(const RenderCommands& commands);
 std::vector<std::filesystem::path> RunRenderMap(const RenderMapOptions& options);
 std::vector<std::filesystem::path> RunRenderTrajectory(const RenderTrajectoryOptions& options);
 std::filesystem::path RunRenderPly(const RenderPlyOptions& options);
+std::vector<std::filesystem::path> RunRenderColmap(const RenderColmapOptions& options);
 
 // The map points of `scene` as a PLY cloud: positions, normals (unit, from
 // the point towards the cameras that see it, for shading), observation

@@ -14,6 +14,7 @@
 #include "common/testing.h"
 #include "common/trajectory.h"
 #include "stages/mapstore/map_file.h"
+#include "stages/mapstore/map_join.h"
 #include "stages/render/image_file.h"
 #include "stages/render/ply.h"
 #include "stages/render/render_test_util.h"
@@ -153,6 +154,70 @@ TEST_F(RenderTool, CloudCompareKeepsEveryPropertyOfThePly) {
   size_t rows = 0;
   while (std::getline(asc, line)) rows += !line.empty();
   EXPECT_EQ(rows, map_.map_points.size());
+}
+
+// The COLMAP model as COLMAP itself (Debian's colmap 3.8) reads it: text and
+// binary, images = keyframes, points = map points, the same mean track
+// length and reprojection error; converted by COLMAP to PLY, the map's
+// points; converted to text, the poses written. Skipped where colmap is not
+// installed.
+TEST_F(RenderTool, ColmapReadsTheModelWithTheMapsCounts) {
+  if (RunCommand("command -v colmap > /dev/null").exit_code != 0) {
+    GTEST_SKIP() << "colmap is not installed (scripts/install-deps.sh all installs it)";
+  }
+  size_t observations = 0;
+  for (const MapPointRecord& p : map_.map_points) observations += p.observations.size();
+  const std::string track_length = fmt::format(
+      "Mean track length: {:.6f}", double(observations) / double(map_.map_points.size()));
+  for (const char* format : {"", " --binary"}) {
+    const std::string out = path(std::string("colmap") + (*format ? "-bin" : "-txt"));
+    ASSERT_EQ(RunTool("render", "colmap --map " + path("m.rrm") + " --sequence " + path("seq") +
+                                    " --out " + out + format)
+                  .exit_code,
+              0);
+    EXPECT_TRUE(std::filesystem::exists(out + "/images/100.000000.png"));
+    const auto analyzer = RunCommand("colmap model_analyzer --path " + out + "/sparse/0");
+    ASSERT_EQ(analyzer.exit_code, 0) << analyzer.output;
+    EXPECT_NE(analyzer.output.find(fmt::format("Registered images: {}", map_.keyframes.size())),
+              std::string::npos)
+        << analyzer.output;
+    EXPECT_NE(analyzer.output.find(fmt::format("Points: {}", map_.map_points.size())),
+              std::string::npos)
+        << analyzer.output;
+    EXPECT_NE(analyzer.output.find(track_length), std::string::npos) << analyzer.output;
+    EXPECT_NE(analyzer.output.find("Mean reprojection error: 0.0"), std::string::npos)
+        << analyzer.output;
+  }
+  // COLMAP's own conversions: to PLY (the points), to text (the poses).
+  const std::string bin = path("colmap-bin") + "/sparse/0";
+  ASSERT_EQ(RunCommand("colmap model_converter --input_path " + bin + " --output_path " +
+                       path("colmap.ply") + " --output_type PLY")
+                .exit_code,
+            0);
+  const PlyCloud ply = ReadPly(path("colmap.ply"));
+  ASSERT_EQ(ply.positions.size(), map_.map_points.size());
+  for (const Eigen::Vector3f& y : ply.positions) {  // In COLMAP's order: the nearest.
+    double nearest = 1e9;
+    for (const MapPointRecord& p : map_.map_points) {
+      const Eigen::Vector3d x(p.position[0], p.position[1], p.position[2]);
+      nearest = std::min(nearest, (y.cast<double>() - x).norm());
+    }
+    EXPECT_LT(nearest, 1e-6);
+  }
+  std::filesystem::create_directories(dir_ / "colmap-back");
+  ASSERT_EQ(RunCommand("colmap model_converter --input_path " + bin + " --output_path " +
+                       path("colmap-back") + " --output_type TXT")
+                .exit_code,
+            0);
+  const ColmapModel back = ReadColmapModel(dir_ / "colmap-back", false);
+  ASSERT_EQ(back.images.size(), map_.keyframes.size());
+  for (const ColmapImage& image : back.images) {  // Image k + 1 is keyframe k.
+    ASSERT_GE(image.id, 1u);
+    ASSERT_LE(image.id, map_.keyframes.size());
+    const Rigid3d T = RigidOf(map_.keyframes[image.id - 1].T_cam_world);
+    EXPECT_LT((image.T_cam_world.translation - T.translation).norm(), 1e-9);
+    EXPECT_LT(image.T_cam_world.rotation.angularDistance(T.rotation), 1e-9);
+  }
 }
 
 TEST_F(RenderTool, TrajectoryAgainstGroundTruth) {
