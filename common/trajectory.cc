@@ -1,5 +1,6 @@
 #include "common/trajectory.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -71,6 +72,27 @@ std::string FormatTumTrajectory(const Trajectory& trajectory) {
 
 void WriteTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory) {
   WriteFileAtomically(path, FormatTumTrajectory(trajectory));
+}
+
+std::vector<std::optional<size_t>> MatchTimestamps(const std::vector<double>& queries,
+                                                   const std::vector<double>& stamps,
+                                                   double tolerance) {
+  std::vector<size_t> order(stamps.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return stamps[a] < stamps[b]; });
+  std::vector<std::optional<size_t>> result;
+  result.reserve(queries.size());
+  for (const double t : queries) {
+    const auto it = std::lower_bound(order.begin(), order.end(), t - tolerance,
+                                     [&](size_t i, double v) { return stamps[i] < v; });
+    std::optional<size_t> best;
+    for (auto j = it; j != order.end() && stamps[*j] <= t + tolerance; ++j) {
+      if (!best || std::abs(stamps[*j] - t) < std::abs(stamps[*best] - t)) best = *j;
+    }
+    result.push_back(best);
+  }
+  return result;
 }
 
 }  // namespace rrslam

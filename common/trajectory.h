@@ -9,6 +9,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,5 +37,11 @@ std::string FormatTumTrajectory(const Trajectory& trajectory);
 
 // Writes a trajectory atomically. Throws CantCreateError.
 void WriteTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory);
+
+// For each of `queries` (seconds), the index in `stamps` of the nearest stamp
+// within `tolerance`, or nullopt when none is (neither needs to be sorted).
+std::vector<std::optional<size_t>> MatchTimestamps(const std::vector<double>& queries,
+                                                   const std::vector<double>& stamps,
+                                                   double tolerance);
 
 }  // namespace rrslam

@@ -267,6 +267,26 @@ TEST_F(MapPipelineTest, ColdStartFromAViewFortyDegreesFromEveryMappedFrame) {
   EXPECT_LT(RotationAngle(found.rotation, truth.rotation) * 180 / M_PI, 2.0);
 }
 
+// The floor-aligned frame (rrslam-mapstore align-floor, render --frame
+// floor): the room's floor is found from the keyframes' depth, stored in the
+// map (which still verifies), and the floor-frame PLY names it.
+TEST_F(MapPipelineTest, FloorOfTheRoomIsFoundAndStored) {
+  const fs::path aligned = path("aligned.rrm");
+  fs::copy_file(map(), aligned);
+  auto r =
+      testing::RunTool("mapstore", "align-floor " + Quote(aligned) + " --sequence " + Quote(seq()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("floor found"), std::string::npos) << r.output;
+  EXPECT_EQ(testing::RunTool("mapstore", "verify " + Quote(aligned)).exit_code, 0);
+  const auto info = testing::RunTool("mapstore", "info --json " + Quote(aligned));
+  EXPECT_NE(info.output.find("T_floor_map"), std::string::npos) << info.output;
+  r = testing::RunTool("render", "ply --map " + Quote(aligned) + " --out " +
+                                     Quote(path("floor.ply")) + " --frame floor");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string ply = ReadFileToString(path("floor.ply"));
+  EXPECT_NE(ply.substr(0, 1000).find("frame: floor (REP 103: z up"), std::string::npos);
+}
+
 // Offline merge (rrslam-mapstore merge): the loop mapped as two maps, frames
 // 0-69 and 50-119, each in its own world frame (its first frame's camera).
 // Merged, the second moves into the first's frame, which is the whole-loop

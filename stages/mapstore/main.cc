@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
        "          metadata (works on a file with corrupt sections; exits 65 after printing)\n"
        "  verify  every checksum and relation; prints 'MAP: ok (N keyframes, M map points)'\n"
        "  diff    map points (within --radius) and keyframes added / removed from A to B\n"
+       "  align-floor  the floor found; the floor-aligned frame (z up) stored in the map\n"
        "  merge   map B moved into map A's frame where they overlap, welded, saved as --out\n"
        "          (exit 75 when no overlap is found)\n"
        "Run `rrslam-mapstore <command> --help` for a command's flags."},

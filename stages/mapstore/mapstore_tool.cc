@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <system_error>
 
 #include "common/atomic_file.h"
@@ -15,6 +16,7 @@
 #include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/path_check.h"
+#include "stages/mapstore/floor.h"
 #include "stages/mapstore/map_diff.h"
 #include "stages/mapstore/map_file.h"
 
@@ -117,6 +119,16 @@ void BindMapstoreCommands(CLI::App& app, MapstoreCommands* c) {
   diff->add_option("--json", c->diff.json_out,
                    "Write a JSON report (counts, added/removed ids and positions) here");
   diff->callback([c] { c->chosen = "diff"; });
+
+  CLI::App* align = app.add_subcommand(
+      "align-floor", "Finds the floor and stores the floor-aligned frame (z up) in the map file");
+  align->add_option("map", c->align_floor.map, "Map file (rewritten atomically)")->required();
+  align->add_option("--sequence", c->align_floor.sequence,
+                    "Sequence folder the map was built from: search the keyframes' depth too "
+                    "(default: the map points only)");
+  align->add_option("--stride", c->align_floor.stride, "Depth pixels sampled every N")
+      ->capture_default_str();
+  align->callback([c] { c->chosen = "align-floor"; });
 }
 
 void RunMapstoreCommand(const MapstoreCommands& c) {
@@ -126,8 +138,10 @@ void RunMapstoreCommand(const MapstoreCommands& c) {
     RunMapVerify(c.verify);
   } else if (c.chosen == "diff") {
     RunMapDiff(c.diff);
+  } else if (c.chosen == "align-floor") {
+    RunMapAlignFloor(c.align_floor);
   } else {
-    throw UsageError("a command is required: info, verify, diff or merge");
+    throw UsageError("a command is required: info, verify, diff, align-floor or merge");
   }
 }
 
@@ -290,6 +304,49 @@ std::string RunMapDiff(const MapDiffOptions& options) {
                        {"removed", PointsJson(d.removed_points)}};
     WriteFileAtomically(options.json_out, DumpJson(j, 2) + "\n");
   }
+  return text;
+}
+
+// ---------------------------------------------------------------------------
+// align-floor
+
+bool MapAlignFloorOptions::Check(std::string* why) const {
+  if (stride < 1) {
+    *why = "--stride = " + std::to_string(stride) + "; must be >= 1";
+    return false;
+  }
+  return true;
+}
+
+std::string RunMapAlignFloor(const MapAlignFloorOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw UsageError(why);
+  const std::string name = options.map.string();
+  MapData map = ReadMapFile(options.map);
+  std::optional<RgbdSequence> sequence;
+  if (!options.sequence.empty()) sequence = RgbdSequence::Open(options.sequence);
+  const std::vector<Eigen::Vector3d> points =
+      FloorSearchPoints(map, sequence ? &*sequence : nullptr, options.stride, name);
+  const std::optional<Floor> floor = FindFloor(map, points);
+  if (!floor) {
+    throw AlgorithmError(name + ": no floor found among " + std::to_string(points.size()) +
+                         " points (no plane below the cameras within 25 degrees of their up "
+                         "direction; the map is unchanged)");
+  }
+  nlohmann::json metadata = nlohmann::json::parse(map.metadata, nullptr, false);
+  if (!metadata.is_object()) metadata = nlohmann::json::object();
+  metadata["floor"] = nlohmann::json::parse(FloorToJson(*floor));
+  map.metadata = metadata.dump();
+  WriteMapFile(options.map, map);
+  const Eigen::Vector3d& t = floor->T_floor_map.translation;
+  char text[400];
+  std::snprintf(text, sizeof(text),
+                "%s: floor found: %zu of %zu points within 2 cm, normal %.1f deg from the "
+                "cameras' up, cameras %.2f m above it; T_floor_map t = (%.4f, %.4f, %.4f) m "
+                "stored in the metadata\n",
+                name.c_str(), floor->inliers, floor->points, floor->tilt_deg, floor->camera_height,
+                t.x(), t.y(), t.z());
+  std::cout << text;
   return text;
 }
 

@@ -1,4 +1,4 @@
-// The commands of `rrslam-mapstore`: info, verify, diff. Each has an options
+// The commands of `rrslam-mapstore`: info, verify, diff, align-floor. Each has an options
 // struct (defaults, units, Check) and a Run function; main.cc only binds them
 // to CLI11 subcommands.
 #pragma once
@@ -40,10 +40,22 @@ struct MapDiffOptions {
   bool Check(std::string* why) const;
 };
 
+// `align-floor`: finds the map's floor (floor.h) and stores the
+// floor-aligned frame in the map file's metadata ("floor"); the map's own
+// coordinates are unchanged and the file is rewritten atomically.
+struct MapAlignFloorOptions {
+  std::filesystem::path map;
+  std::filesystem::path sequence;  // With it, the keyframes' depth is searched too.
+  int stride = 8;                  // Depth pixels sampled every `stride` (>= 1).
+
+  bool Check(std::string* why) const;
+};
+
 struct MapstoreCommands {
   MapInfoOptions info;
   MapVerifyOptions verify;
   MapDiffOptions diff;
+  MapAlignFloorOptions align_floor;
   std::string chosen;  // "info", "verify" or "diff".
 };
 void BindMapstoreCommands(CLI::App& app, MapstoreCommands* commands);
@@ -57,5 +69,7 @@ void RunMapstoreCommand(const MapstoreCommands& commands);
 std::string RunMapInfo(const MapInfoOptions& options);
 std::string RunMapVerify(const MapVerifyOptions& options);
 std::string RunMapDiff(const MapDiffOptions& options);
+// Throws AlgorithmError (exit 75) when no floor is found (the map unchanged).
+std::string RunMapAlignFloor(const MapAlignFloorOptions& options);
 
 }  // namespace rrslam

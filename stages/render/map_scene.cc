@@ -1,12 +1,17 @@
 #include "stages/render/map_scene.h"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "common/errors.h"
 #include "stages/eval/ate.h"
+#include "stages/mapstore/floor.h"
 #include "stages/mapstore/map_file.h"
+#include "stages/render/ply.h"
 
 namespace rrslam {
 namespace {
@@ -98,28 +103,44 @@ MapScene MakeMapScene(const MapData& map, const std::string& source) {
 
 std::vector<std::optional<size_t>> MatchKeyFrameTimestamps(
     const MapScene& scene, const std::vector<double>& rgb_timestamps) {
-  std::vector<size_t> order(rgb_timestamps.size());
-  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](size_t a, size_t b) { return rgb_timestamps[a] < rgb_timestamps[b]; });
-  std::vector<std::optional<size_t>> result;
-  result.reserve(scene.keyframes.size());
-  for (const SceneKeyFrame& kf : scene.keyframes) {
-    const auto it =
-        std::lower_bound(order.begin(), order.end(), kf.timestamp - kKeyFrameTimestampTolerance,
-                         [&](size_t i, double t) { return rgb_timestamps[i] < t; });
-    std::optional<size_t> best;
-    for (auto j = it;
-         j != order.end() && rgb_timestamps[*j] <= kf.timestamp + kKeyFrameTimestampTolerance;
-         ++j) {
-      if (!best || std::abs(rgb_timestamps[*j] - kf.timestamp) <
-                       std::abs(rgb_timestamps[*best] - kf.timestamp)) {
-        best = *j;
-      }
-    }
-    result.push_back(best);
+  std::vector<double> queries;
+  for (const SceneKeyFrame& kf : scene.keyframes) queries.push_back(kf.timestamp);
+  return MatchTimestamps(queries, rgb_timestamps, kKeyFrameTimestampTolerance);
+}
+
+MapScene InFrame(const MapScene& scene, const Rigid3d& T) {
+  MapScene moved = scene;
+  for (ScenePoint& p : moved.points) {
+    p.position = T * p.position;
+    p.normal = T.rotation * p.normal;
   }
-  return result;
+  for (SceneKeyFrame& kf : moved.keyframes) kf.T_world_cam = T * kf.T_world_cam;
+  return moved;
+}
+
+std::optional<Rigid3d> ExportFrame(const std::string& frame, const MapData& map,
+                                   const std::string& source) {
+  if (frame == "camera") return std::nullopt;
+  if (frame != "floor") throw UsageError("--frame " + frame + ": must be camera or floor");
+  if (auto stored = FloorFromMetadata(map.metadata)) return stored;
+  if (auto found = FindFloor(map, FloorSearchPoints(map, nullptr, 1, source))) {
+    spdlog::info(
+        "render: floor found among {} of {} map points of {} (not stored: "
+        "rrslam-mapstore align-floor stores it)",
+        found->inliers, found->points, source);
+    return found->T_floor_map;
+  }
+  spdlog::warn("render: no floor found in {}; the camera frame is kept", source);
+  return std::nullopt;
+}
+
+std::string FrameComment(const std::optional<Rigid3d>& T) {
+  if (!T) return kMapFrameComment;
+  return fmt::format(
+      "frame: floor (REP 103: z up, origin on the floor under the first keyframe, x along its "
+      "view), metres; T_floor_map q = ({:.9f} {:.9f} {:.9f} {:.9f}) t = ({:.6f} {:.6f} {:.6f})",
+      T->rotation.w(), T->rotation.x(), T->rotation.y(), T->rotation.z(), T->translation.x(),
+      T->translation.y(), T->translation.z());
 }
 
 MapScene LoadMapScene(const std::filesystem::path& path) {

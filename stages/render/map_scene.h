@@ -71,6 +71,22 @@ struct MapScene {
 // ... --save-map) are marked loaded.
 MapScene MakeMapScene(const MapData& map, const std::string& source);
 
+// The scene in another frame: every point, normal and keyframe pose mapped
+// by T_frame_world (e.g. the floor frame, mapstore's floor.h).
+MapScene InFrame(const MapScene& scene, const Rigid3d& T_frame_world);
+
+// `--frame`: "camera" (the map's world, nullopt) or "floor" (the floor frame
+// the map's metadata holds, `rrslam-mapstore align-floor`, else the floor
+// found among the map points). Where no floor is found it says so on stderr
+// and returns nullopt: the camera frame is kept. Throws UsageError for
+// another name.
+std::optional<Rigid3d> ExportFrame(const std::string& frame, const MapData& map,
+                                   const std::string& source);
+
+// The PLY comment naming the export's frame (ply.h's kMapFrameComment for
+// the camera frame).
+std::string FrameComment(const std::optional<Rigid3d>& T_floor_map);
+
 // Seconds: a keyframe's timestamp is the rgb timestamp of the frame it was
 // made from, printed with 6 decimals in the sequence's lists.
 inline constexpr double kKeyFrameTimestampTolerance = 1e-4;

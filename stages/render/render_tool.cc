@@ -106,7 +106,13 @@ std::vector<std::filesystem::path> RunRenderMap(const RenderMapOptions& options)
   MapPictureOptions picture = options.picture;
   picture.colouring = ParseColouring(options.colour);
   if (!options.viewpoint.empty()) picture.viewpoint = ReadViewpoint(options.viewpoint);
-  const MapScene scene = LoadMapScene(options.map);
+  const MapData data = ReadMapFile(options.map);
+  MapScene scene = MakeMapScene(data, options.map.string());
+  const std::optional<Rigid3d> frame = ExportFrame(options.frame, data, options.map.string());
+  if (frame) {
+    scene = InFrame(scene, *frame);
+    picture.up = "z";
+  }
   PrepareOutputFolder(options.out);
   // Views are drawn and encoded on two threads (each file is its own).
   std::vector<std::filesystem::path> written(options.views.size());
@@ -115,7 +121,8 @@ std::vector<std::filesystem::path> RunRenderMap(const RenderMapOptions& options)
     const std::string& name = options.views[i];
     const MapPicture rendered = RenderMapPicture(scene, ParseView(name), picture);
     const std::filesystem::path path = options.out / ("map_" + name + ".png");
-    nlohmann::ordered_json json = {{"map", options.map.string()}, {"view", name}};
+    nlohmann::ordered_json json = {
+        {"map", options.map.string()}, {"view", name}, {"frame", FrameComment(frame)}};
     json["picture"] = picture.ToJson();
     WritePicture(path, rendered.image, Metadata(rendered.title, json));
     written[i] = path;
@@ -278,14 +285,17 @@ PlyCloud MapPointCloud(const MapScene& scene, const std::filesystem::path& seque
 std::filesystem::path RunRenderPly(const RenderPlyOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
-  const MapScene scene = LoadMapScene(options.map);
+  const MapData data = ReadMapFile(options.map);
+  const std::optional<Rigid3d> frame = ExportFrame(options.frame, data, options.map.string());
+  MapScene scene = MakeMapScene(data, options.map.string());
+  if (frame) scene = InFrame(scene, *frame);
   PlyCloud cloud = MapPointCloud(scene, options.sequence, options.associations);
   cloud.comments.push_back("producer " + Producer("render"));
   cloud.comments.push_back("map " + options.map.string());
   cloud.comments.push_back(options.sequence.empty()
                                ? std::string("colour grey (no --sequence)")
                                : "colour from keyframe images of " + options.sequence.string());
-  cloud.comments.push_back(kMapFrameComment);
+  cloud.comments.push_back(FrameComment(frame));
   WritePly(options.out, cloud, options.binary ? PlyFormat::kBinaryLittleEndian : PlyFormat::kAscii);
   return options.out;
 }
@@ -385,6 +395,11 @@ void BindRenderCommands(CLI::App& app, RenderCommands* c) {
                   "Point colour: height, observations, or age (loaded vs. added after restore "
                   "mapping; else creation order)")
       ->capture_default_str();
+  map->add_option("--frame", c->map.frame,
+                  "camera (the map's world) or floor (z up, origin on the floor: the frame "
+                  "rrslam-mapstore align-floor stored, else the floor found among the points)")
+      ->check(CLI::IsMember({"camera", "floor"}))
+      ->capture_default_str();
   map->add_option("--up", c->map.picture.up, "World axis pointing up (first camera level: -y)")
       ->capture_default_str();
   map->add_option("--width", c->map.picture.width_px, "Image width, pixels [320, 8000]")
@@ -441,6 +456,11 @@ void BindRenderCommands(CLI::App& app, RenderCommands* c) {
   ply->add_flag("--binary,!--ascii", c->ply.binary,
                 "PLY as binary little-endian (default: 3x smaller, exact floats, read as fast as "
                 "any viewer can) or --ascii");
+  ply->add_option("--frame", c->ply.frame,
+                  "camera (the map's world) or floor (z up, origin on the floor: the frame "
+                  "rrslam-mapstore align-floor stored, else the floor found among the points)")
+      ->check(CLI::IsMember({"camera", "floor"}))
+      ->capture_default_str();
   ply->callback([c] { c->chosen = "ply"; });
 
   CLI::App* html = app.add_subcommand(

@@ -32,6 +32,7 @@ struct RenderMapOptions {
   std::vector<std::string> views = {"top", "side", "front", "perspective"};
   std::filesystem::path viewpoint;  // Settings file with Viewer.Viewpoint*; empty = automatic.
   std::string colour = "height";    // height, observations, age.
+  std::string frame = "camera";     // camera or floor (ExportFrame, map_scene.h); floor: up = z.
   MapPictureOptions picture;  // Size, up axis, what is drawn (colouring/viewpoint set from above).
 
   bool Check(std::string* why) const;
@@ -56,6 +57,7 @@ struct RenderPlyOptions {
   std::filesystem::path
       associations;    // As rrslam-track's --associations (relative to the sequence).
   bool binary = true;  // binary_little_endian (--binary, the default); false: ASCII (--ascii).
+  std::string frame = "camera";  // camera or floor (ExportFrame, map_scene.h).
 
   bool Check(std::string* why) const;
 };

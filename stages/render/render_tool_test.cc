@@ -220,6 +220,27 @@ TEST_F(RenderTool, ColmapReadsTheModelWithTheMapsCounts) {
   }
 }
 
+// --frame floor where the map has no floor (a wall in front of the
+// cameras): the camera frame is kept and the PLY says so; align-floor exits
+// 75 and leaves the map file as it was.
+TEST_F(RenderTool, FloorFrameKeepsTheCameraFrameWhereNoFloorIsFound) {
+  const std::string before = ReadFileToString(dir_ / "m.rrm");
+  const auto align = RunTool("mapstore", "align-floor " + path("m.rrm"));
+  EXPECT_EQ(align.exit_code, 75) << align.output;
+  EXPECT_NE(align.output.find("no floor found"), std::string::npos) << align.output;
+  EXPECT_EQ(ReadFileToString(dir_ / "m.rrm"), before);
+  const auto ply = RunTool(
+      "render", "ply --map " + path("m.rrm") + " --out " + path("floor.ply") + " --frame floor");
+  ASSERT_EQ(ply.exit_code, 0) << ply.output;
+  EXPECT_NE(ply.output.find("no floor found"), std::string::npos) << ply.output;
+  const std::string header = ReadFileToString(dir_ / "floor.ply").substr(0, 600);
+  EXPECT_NE(header.find(kMapFrameComment), std::string::npos) << header;
+  EXPECT_EQ(RunTool("render",
+                    "ply --map " + path("m.rrm") + " --out " + path("x.ply") + " --frame ceiling")
+                .exit_code,
+            64);
+}
+
 TEST_F(RenderTool, TrajectoryAgainstGroundTruth) {
   Trajectory gt, est;
   for (int i = 0; i < 200; ++i) {
