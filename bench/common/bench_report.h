@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/atomic_file.h"
 #include "common/text.h"
 
 namespace rrslam::bench {
@@ -100,5 +101,25 @@ class Report {
   std::vector<std::pair<std::string, Figure>> figures_;
   std::vector<std::pair<std::string, std::string>> notes_;
 };
+
+// Writes PREFIX.txt (the `title` line, the command, the machine, the
+// report and whether every goal is met) and PREFIX.json, each atomically,
+// and prints the text: the results of a benchmark driver.
+inline void WriteGoalResults(const std::string& out_prefix, const std::string& title,
+                             const std::string& command, const std::string& machine,
+                             const Report& report) {
+  std::ostringstream text;
+  text << "# " << title << " (command: " << command << ")\n";
+  text << "# machine: " << machine << "\n";
+  text << report.Text();
+  text << "\nall goals met: " << (report.AllPass() ? "yes" : "no") << "\n";
+  ordered_json j;
+  j["machine"] = machine;
+  j["figures"] = report.Json();
+  j["all_goals_met"] = report.AllPass();
+  WriteFileAtomically(out_prefix + ".txt", text.str());
+  WriteFileAtomically(out_prefix + ".json", j.dump(2) + "\n");
+  std::cout << text.str();
+}
 
 }  // namespace rrslam::bench

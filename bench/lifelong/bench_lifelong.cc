@@ -203,23 +203,6 @@ bool MeasureOfflineMerge(const Options& o, const Sequence& seq, Report* report) 
   return true;
 }
 
-void WriteResults(const Options& o, const Report& report) {
-  std::ostringstream text;
-  text << "# bench-lifelong: maps kept over many sessions, against the goals of issue 31 "
-          "(command: "
-       << o.command << ")\n";
-  text << "# machine: " << o.machine << "\n";
-  text << report.Text();
-  text << "\nall goals met: " << (report.AllPass() ? "yes" : "no") << "\n";
-  ordered_json j;
-  j["machine"] = o.machine;
-  j["figures"] = report.Json();
-  j["all_goals_met"] = report.AllPass();
-  rrslam::WriteFileAtomically(o.out_prefix + ".txt", text.str());
-  rrslam::WriteFileAtomically(o.out_prefix + ".json", j.dump(2) + "\n");
-  std::cout << text.str();
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -241,6 +224,8 @@ int main(int argc, char** argv) {
     if (!MeasureIdenticalSessions(o, seq, &report)) failed = true;
     if (!MeasureOfflineMerge(o, seq, &report)) failed = true;
   }
-  WriteResults(o, report);
+  rrslam::bench::WriteGoalResults(
+      o.out_prefix, "bench-lifelong: maps kept over many sessions, against the goals of issue 31",
+      o.command, o.machine, report);
   return failed ? 1 : 0;
 }

@@ -1206,22 +1206,6 @@ void MeasureKillsDuringSave(Bench* bench) {
 }
 
 // PREFIX.txt and PREFIX.json, and the text on stdout.
-void WriteResults(const Options& o, const Report& report) {
-  std::ostringstream text;
-  text << "# bench-map: offline maps against the goals of issue 13 (command: " << o.command
-       << ")\n";
-  text << "# machine: " << o.machine << "\n";
-  text << report.Text();
-  text << "\nall goals met: " << (report.AllPass() ? "yes" : "no") << "\n";
-  ordered_json j;
-  j["machine"] = o.machine;
-  j["figures"] = report.Json();
-  j["all_goals_met"] = report.AllPass();
-  rrslam::WriteFileAtomically(o.out_prefix + ".txt", text.str());
-  rrslam::WriteFileAtomically(o.out_prefix + ".json", j.dump(2) + "\n");
-  std::cout << text.str();
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -1239,6 +1223,8 @@ int main(int argc, char** argv) {
     MeasureSyntheticRestore(&bench);
     MeasureKillsDuringSave(&bench);
   }
-  WriteResults(options, bench.report);
+  rrslam::bench::WriteGoalResults(options.out_prefix,
+                                  "bench-map: offline maps against the goals of issue 13",
+                                  options.command, options.machine, bench.report);
   return bench.failed_run ? 1 : 0;
 }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "common/dataset.h"
 #include "common/errors.h"
 #include "stages/eval/ate.h"
 #include "stages/mapstore/floor.h"
@@ -119,14 +120,20 @@ MapScene InFrame(const MapScene& scene, const Rigid3d& T) {
 }
 
 std::optional<Rigid3d> ExportFrame(const std::string& frame, const MapData& map,
-                                   const std::string& source) {
+                                   const std::string& source,
+                                   const std::filesystem::path& sequence_dir) {
   if (frame == "camera") return std::nullopt;
   if (frame != "floor") throw UsageError("--frame " + frame + ": must be camera or floor");
   if (auto stored = FloorFromMetadata(map.metadata)) return stored;
-  if (auto found = FindFloor(map, FloorSearchPoints(map, nullptr, 1, source))) {
+  std::optional<RgbdSequence> sequence;
+  if (!sequence_dir.empty()) sequence = RgbdSequence::Open(sequence_dir);
+  constexpr int kDepthStride = 8;
+  const std::vector<Eigen::Vector3d> points =
+      FloorSearchPoints(map, sequence ? &*sequence : nullptr, kDepthStride, source);
+  if (auto found = FindFloor(map, points)) {
     spdlog::info(
-        "render: floor found among {} of {} map points of {} (not stored: "
-        "rrslam-mapstore align-floor stores it)",
+        "render: floor found among {} of {} points of {} (not stored: rrslam-mapstore "
+        "align-floor stores it)",
         found->inliers, found->points, source);
     return found->T_floor_map;
   }

@@ -77,11 +77,14 @@ MapScene InFrame(const MapScene& scene, const Rigid3d& T_frame_world);
 
 // `--frame`: "camera" (the map's world, nullopt) or "floor" (the floor frame
 // the map's metadata holds, `rrslam-mapstore align-floor`, else the floor
-// found among the map points). Where no floor is found it says so on stderr
-// and returns nullopt: the camera frame is kept. Throws UsageError for
-// another name.
+// found among the map points and, given `sequence`, the keyframes' depth:
+// a textureless floor has few map points, and the synthetic room's
+// points alone give a table for the floor). Where no floor is found it says
+// so on stderr and returns nullopt: the camera frame is kept. Throws
+// UsageError for another name.
 std::optional<Rigid3d> ExportFrame(const std::string& frame, const MapData& map,
-                                   const std::string& source);
+                                   const std::string& source,
+                                   const std::filesystem::path& sequence = {});
 
 // The PLY comment naming the export's frame (ply.h's kMapFrameComment for
 // the camera frame).

@@ -286,7 +286,8 @@ std::filesystem::path RunRenderPly(const RenderPlyOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   const MapData data = ReadMapFile(options.map);
-  const std::optional<Rigid3d> frame = ExportFrame(options.frame, data, options.map.string());
+  const std::optional<Rigid3d> frame =
+      ExportFrame(options.frame, data, options.map.string(), options.sequence);
   MapScene scene = MakeMapScene(data, options.map.string());
   if (frame) scene = InFrame(scene, *frame);
   PlyCloud cloud = MapPointCloud(scene, options.sequence, options.associations);
