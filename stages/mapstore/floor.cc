@@ -184,7 +184,7 @@ std::vector<Eigen::Vector3d> FloorSearchPoints(const MapData& map, const RgbdSeq
   std::vector<double> keyframe_stamps, frame_stamps;
   for (const KeyFrameRecord& kf : map.keyframes) keyframe_stamps.push_back(kf.timestamp);
   for (const RgbdFrameRef& f : sequence->frames()) frame_stamps.push_back(f.rgb_timestamp);
-  const auto frames = MatchTimestamps(keyframe_stamps, frame_stamps, 1e-4);
+  const auto frames = MatchTimestamps(keyframe_stamps, frame_stamps, kKeyFrameTimestampTolerance);
   const MapCamera& c = map.camera;
   for (size_t k = 0; k < map.keyframes.size(); ++k) {
     if (!frames[k]) {

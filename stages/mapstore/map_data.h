@@ -30,6 +30,11 @@
 
 namespace rrslam {
 
+// Seconds: a keyframe's timestamp is the rgb timestamp of the frame it was
+// made from, printed with 6 decimals in the sequence's lists; a keyframe is
+// found in its sequence by timestamp within this (render, floor search).
+inline constexpr double kKeyFrameTimestampTolerance = 1e-4;
+
 // "No keyframe / no map point" in an id field.
 inline constexpr uint64_t kNoId = ~uint64_t{0};
 

@@ -18,15 +18,27 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// COLMAP's camera model ids (colmap/src/base/camera_models.h).
-int ModelId(const std::string& model) {
-  if (model == "PINHOLE") return 1;
-  if (model == "OPENCV") return 4;
-  if (model == "FULL_OPENCV") return 6;
-  return -1;
+// COLMAP's camera models rrslam writes: name, id and parameter count
+// (colmap/src/base/camera_models.h).
+struct CameraModel {
+  const char* name;
+  int id;
+  size_t params;
+};
+constexpr CameraModel kCameraModels[] = {
+    {"PINHOLE", 1, 4}, {"OPENCV", 4, 8}, {"FULL_OPENCV", 6, 12}};
+
+const CameraModel* ModelNamed(const std::string& name) {
+  for (const CameraModel& m : kCameraModels) {
+    if (name == m.name) return &m;
+  }
+  return nullptr;
 }
-std::string ModelName(int id) {
-  return id == 1 ? "PINHOLE" : id == 4 ? "OPENCV" : id == 6 ? "FULL_OPENCV" : "";
+const CameraModel* ModelWithId(int id) {
+  for (const CameraModel& m : kCameraModels) {
+    if (id == m.id) return &m;
+  }
+  return nullptr;
 }
 
 ColmapCamera CameraOf(const MapCamera& c) {
@@ -109,7 +121,9 @@ std::string CamerasBinary(const ColmapModel& m) {
   Put<uint64_t>(&out, m.cameras.size());
   for (const ColmapCamera& c : m.cameras) {
     Put<int32_t>(&out, static_cast<int32_t>(c.id));
-    Put<int32_t>(&out, ModelId(c.model));
+    const CameraModel* model = ModelNamed(c.model);
+    if (model == nullptr) throw std::invalid_argument("COLMAP camera model " + c.model);
+    Put<int32_t>(&out, model->id);
     Put<uint64_t>(&out, c.width);
     Put<uint64_t>(&out, c.height);
     for (double p : c.params) Put<double>(&out, p);
@@ -262,13 +276,14 @@ void ReadBinary(const fs::path& dir, ColmapModel* m) {
   for (uint64_t n = cameras.GetCount(24), i = 0; i < n; ++i) {
     ColmapCamera c;
     c.id = static_cast<uint32_t>(cameras.Get<int32_t>());
-    const int model = cameras.Get<int32_t>();
-    c.model = ModelName(model);
-    if (c.model.empty()) throw DataError((dir / "cameras.bin").string() + ": unknown camera model");
+    const CameraModel* model = ModelWithId(cameras.Get<int32_t>());
+    if (model == nullptr) {
+      throw DataError((dir / "cameras.bin").string() + ": unknown camera model");
+    }
+    c.model = model->name;
     c.width = cameras.Get<uint64_t>();
     c.height = cameras.Get<uint64_t>();
-    const size_t params = model == 1 ? 4 : model == 4 ? 8 : 12;
-    for (size_t k = 0; k < params; ++k) c.params.push_back(cameras.Get<double>());
+    for (size_t k = 0; k < model->params; ++k) c.params.push_back(cameras.Get<double>());
     m->cameras.push_back(c);
   }
   Bytes images(dir / "images.bin");

@@ -119,6 +119,22 @@ MapScene InFrame(const MapScene& scene, const Rigid3d& T) {
   return moved;
 }
 
+std::vector<size_t> KeyFrameFrames(const MapScene& scene, const RgbdSequence& sequence) {
+  std::vector<double> stamps;
+  for (const RgbdFrameRef& frame : sequence.frames()) stamps.push_back(frame.rgb_timestamp);
+  const std::vector<std::optional<size_t>> matched = MatchKeyFrameTimestamps(scene, stamps);
+  std::vector<size_t> frames;
+  for (size_t k = 0; k < matched.size(); ++k) {
+    if (!matched[k]) {
+      throw DataError(fmt::format("{}: keyframe {} (t = {:.6f}) has no frame in {}", scene.source,
+                                  scene.keyframes[k].id, scene.keyframes[k].timestamp,
+                                  sequence.dir().string()));
+    }
+    frames.push_back(*matched[k]);
+  }
+  return frames;
+}
+
 std::optional<Rigid3d> ExportFrame(const std::string& frame, const MapData& map,
                                    const std::string& source,
                                    const std::filesystem::path& sequence_dir) {

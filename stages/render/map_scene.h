@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/dataset.h"
 #include "common/geometry.h"
 #include "common/trajectory.h"
 #include "stages/mapstore/map_data.h"
@@ -90,16 +91,17 @@ std::optional<Rigid3d> ExportFrame(const std::string& frame, const MapData& map,
 // the camera frame).
 std::string FrameComment(const std::optional<Rigid3d>& T_floor_map);
 
-// Seconds: a keyframe's timestamp is the rgb timestamp of the frame it was
-// made from, printed with 6 decimals in the sequence's lists.
-inline constexpr double kKeyFrameTimestampTolerance = 1e-4;
-
 // For every keyframe of `scene` (in order), the index of its frame in a
 // sequence whose frames have `rgb_timestamps` (seconds): the nearest frame
 // within kKeyFrameTimestampTolerance of the keyframe's timestamp, or nullopt
 // when none is.
 std::vector<std::optional<size_t>> MatchKeyFrameTimestamps(
     const MapScene& scene, const std::vector<double>& rgb_timestamps);
+
+// The index in `sequence` of every keyframe's frame (MatchKeyFrameTimestamps);
+// throws DataError naming the map, the keyframe and the sequence when one
+// has none.
+std::vector<size_t> KeyFrameFrames(const MapScene& scene, const RgbdSequence& sequence);
 
 // Reads and validates a map file (mapstore's ReadMapFile: NoInputError,
 // DataError naming the file) and builds its scene.

@@ -238,16 +238,7 @@ PlyCloud MapPointCloud(const MapScene& scene, const std::filesystem::path& seque
   sequence_options.max_image_size = {scene.camera.width, scene.camera.height,
                                      "the camera of " + scene.source};
   const RgbdSequence sequence = RgbdSequence::Open(sequence_dir, sequence_options);
-  std::vector<double> stamps;
-  for (const RgbdFrameRef& frame : sequence.frames()) stamps.push_back(frame.rgb_timestamp);
-  const std::vector<std::optional<size_t>> frames = MatchKeyFrameTimestamps(scene, stamps);
-  for (size_t k = 0; k < frames.size(); ++k) {
-    if (!frames[k]) {
-      throw DataError(fmt::format("{}: keyframe {} (t = {:.6f}) has no frame in {}", scene.source,
-                                  scene.keyframes[k].id, scene.keyframes[k].timestamp,
-                                  sequence_dir.string()));
-    }
-  }
+  const std::vector<size_t> frames = KeyFrameFrames(scene, sequence);
   // Each keyframe's image is read once; a point's colour is the mean over
   // its observations.
   std::vector<std::vector<std::pair<size_t, cv::Point2f>>> by_keyframe(scene.keyframes.size());
@@ -262,7 +253,7 @@ PlyCloud MapPointCloud(const MapScene& scene, const std::filesystem::path& seque
   std::vector<int> counts(n, 0);
   for (size_t k = 0; k < by_keyframe.size(); ++k) {
     if (by_keyframe[k].empty()) continue;
-    const cv::Mat image = sequence.LoadColor(*frames[k]);
+    const cv::Mat image = sequence.LoadColor(frames[k]);
     for (const auto& [i, pixel] : by_keyframe[k]) {
       const int x = static_cast<int>(std::lround(pixel.x));
       const int y = static_cast<int>(std::lround(pixel.y));
@@ -319,17 +310,9 @@ std::vector<std::filesystem::path> KeyFrameImages(const MapScene& scene,
   SequenceOptions sequence_options;
   sequence_options.associations = o.associations;
   const RgbdSequence sequence = RgbdSequence::Open(o.sequence, sequence_options);
-  std::vector<double> stamps;
-  for (const RgbdFrameRef& frame : sequence.frames()) stamps.push_back(frame.rgb_timestamp);
   std::vector<std::filesystem::path> images;
-  const std::vector<std::optional<size_t>> frames = MatchKeyFrameTimestamps(scene, stamps);
-  for (size_t k = 0; k < frames.size(); ++k) {
-    if (!frames[k]) {
-      throw DataError(fmt::format("{}: keyframe {} (t = {:.6f}) has no frame in {}", scene.source,
-                                  scene.keyframes[k].id, scene.keyframes[k].timestamp,
-                                  o.sequence.string()));
-    }
-    images.push_back(sequence.frame(*frames[k]).rgb_path);
+  for (size_t frame : KeyFrameFrames(scene, sequence)) {
+    images.push_back(sequence.frame(frame).rgb_path);
   }
   return images;
 }
@@ -360,10 +343,11 @@ std::vector<std::filesystem::path> RunRenderColmap(const RenderColmapOptions& o)
   const ColmapModel model = ColmapModelOf(map, names, cloud.colors);
   PrepareOutputFolder(o.out);
   const std::filesystem::path image_dir = o.out / "images", model_dir = o.out / "sparse" / "0";
-  std::error_code ec;
-  std::filesystem::create_directories(image_dir, ec);
-  std::filesystem::create_directories(model_dir, ec);
-  if (ec) throw CantCreateError(model_dir.string() + ": cannot create: " + ec.message());
+  for (const std::filesystem::path& dir : {image_dir, model_dir}) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec) throw CantCreateError(dir.string() + ": cannot create: " + ec.message());
+  }
   std::vector<std::filesystem::path> written;
   for (size_t k = 0; k < images.size(); ++k) {
     written.push_back(image_dir / names[k]);

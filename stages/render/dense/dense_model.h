@@ -51,7 +51,7 @@ struct DenseOptions {
   std::filesystem::path map;
   // The TUM-layout RGB-D sequence the map was built from (common/dataset.h).
   // Every keyframe's timestamp must be the rgb timestamp of one of its
-  // frames (within kKeyFrameTimestampTolerance, map_scene.h). Required (--sequence).
+  // frames (within kKeyFrameTimestampTolerance, mapstore/map_data.h). Required (--sequence).
   std::filesystem::path sequence;
   // Associations file, absolute or relative to the sequence, as given to
   // rrslam-track (--associations); empty: rgb.txt paired with depth.txt.

@@ -74,10 +74,8 @@ MapWeldStats WeldJoinedMap(const SensorModel& sensor, Map* joined, KeyFrameId fi
     if (!p->bad() && p->id() < first_b_point) a_points.push_back(p);
   }
   const Matcher matcher(sensor, 0.8, true);
-  std::vector<KeyFrame*> b_keyframes;
   for (KeyFrame* kb : joined->KeyFrames()) {
     if (kb->bad() || kb->id() < first_b_keyframe) continue;
-    b_keyframes.push_back(kb);
     std::vector<MapPoint*> replace;
     stats.points_fused +=
         matcher.FuseForLoop(kb, a_points, joined, options.check.fuse_radius, &replace);
