@@ -392,16 +392,20 @@ void AtomicOutput::Commit() {
   FsyncPath(ParentOf(final_path_), true);
 }
 
-void WriteFileAtomically(const fs::path& path, std::string_view content) {
-  AtomicOutput out(path);
+void CommitContent(AtomicOutput* out, std::string_view content) {
   {
-    std::ofstream stream(out.temp_path(), std::ios::binary | std::ios::trunc);
-    if (!stream) throw CantCreateError(out.temp_path().string() + ": cannot open for writing");
+    std::ofstream stream(out->temp_path(), std::ios::binary | std::ios::trunc);
+    if (!stream) throw CantCreateError(out->temp_path().string() + ": cannot open for writing");
     stream.write(content.data(), static_cast<std::streamsize>(content.size()));
     stream.flush();
-    if (!stream) throw CantCreateError(out.temp_path().string() + ": write failed");
+    if (!stream) throw CantCreateError(out->temp_path().string() + ": write failed");
   }
-  out.Commit();
+  out->Commit();
+}
+
+void WriteFileAtomically(const fs::path& path, std::string_view content) {
+  AtomicOutput out(path);
+  CommitContent(&out, content);
 }
 
 std::string ReadFileToString(const fs::path& path) {

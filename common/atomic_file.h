@@ -150,6 +150,11 @@ void SetForceRenameFallback(bool force);
 // Writes `content` to `path` atomically (see AtomicOutput).
 void WriteFileAtomically(const std::filesystem::path& path, std::string_view content);
 
+// Writes `content` into a file output's temporary file and commits it: for a
+// tool that reserves its outputs before the work (their folders checked
+// early) and fills them at the end.
+void CommitContent(AtomicOutput* out, std::string_view content);
+
 // Reads a whole file, or a pipe to its end. Throws NoInputError when it
 // cannot be opened or is a folder or device ("/dev/zero: is a character
 // device, expected a file").

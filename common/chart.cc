@@ -45,7 +45,9 @@ std::string TickLabel(double value, double step) {
   // positive finite number.
   const double digits = -std::floor(std::log10(step) + 1e-9);
   const int decimals = std::isfinite(digits) ? static_cast<int>(std::clamp(digits, 0.0, 17.0)) : 0;
-  if (std::isfinite(step) && std::fabs(value) < 1e-6 * step) value = 0;  // No "-0.0".
+  // No "-0.0": a value that prints as zero (-0.004 with one decimal) is zero.
+  const double scale = std::pow(10.0, decimals);
+  if (std::isfinite(step) && std::fabs(value) * scale < 0.5) value = 0;
   char buffer[48];
   std::snprintf(buffer, sizeof(buffer), "%.*f", decimals, value);
   return buffer;

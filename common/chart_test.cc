@@ -64,6 +64,7 @@ TEST(DrawGrid, EndsOnCoordinatesBeyondTheirPrecision) {
 TEST(TickLabel, DecimalsOfTheStep) {
   EXPECT_EQ(TickLabel(0.25, 0.05), "0.25");
   EXPECT_EQ(TickLabel(-1e-12, 0.1), "0.0");
+  EXPECT_EQ(TickLabel(-0.004, 0.5), "0.0");  // Prints as zero: no minus sign.
   EXPECT_EQ(TickLabel(3, std::numeric_limits<double>::infinity()), "3");
   EXPECT_EQ(TickLabel(3, 0), "3");
 }

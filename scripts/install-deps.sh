@@ -22,6 +22,7 @@ PACKAGES=(
   libopencv-dev libopencv-contrib-dev libeigen3-dev libceres-dev libflann-dev libopenimageio-dev
   libhdf5-dev libcli11-dev libspdlog-dev libgtest-dev nlohmann-json3-dev
   libxxhash-dev libpng-dev libjpeg-dev
+  liboctomap-dev  # render's octomap and grid commands
   nodejs     # node and npm: bundle the render stage's browser viewer (three.js, esbuild)
 )
 # Debian's nodejs comes without npm (a package of its own); a Node.js that
@@ -37,6 +38,7 @@ if [[ "$group" == all ]]; then
     slurm-wlm munge  # LAUNCHER=srun: the e2e/slurm test starts a one-node Slurm of its own
     cloudcompare     # render's PLY test reads rrslam's PLY with CloudCompare's command line
     colmap           # render's COLMAP test reads rrslam's model with COLMAP's model_analyzer
+    octomap-tools    # render's OctoMap test reads rrslam's .bt with convert_octree
   )
 fi
 

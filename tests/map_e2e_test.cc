@@ -287,6 +287,60 @@ TEST_F(MapPipelineTest, FloorOfTheRoomIsFoundAndStored) {
   EXPECT_NE(ply.substr(0, 1000).find("frame: floor (REP 103: z up"), std::string::npos);
 }
 
+// What a robot takes from the floor-aligned map: an OctoMap and a
+// navigation grid of the room (every keyframe's camera stands over a free
+// cell; the walls make occupied cells), and the other exports in the floor
+// frame, each naming it.
+TEST_F(MapPipelineTest, FloorFrameExportsAndTheNavigationGrid) {
+  const fs::path aligned = path("aligned-exports.rrm");
+  fs::copy_file(map(), aligned);
+  const std::string inputs = " --sequence " + Quote(seq());
+  auto r = testing::RunTool("mapstore", "align-floor " + Quote(aligned) + inputs);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string map_flag = "--map " + Quote(aligned) + inputs;
+
+  r = testing::RunTool("render", "octomap " + map_flag + " --out " + Quote(path("room.bt")));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(ReadFileToString(path("room.bt")).substr(0, 600).find("frame: floor"),
+            std::string::npos);
+
+  r = testing::RunTool("render", "grid " + map_flag + " --out " + Quote(path("grid.yaml")));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  int free = 0, occupied = 0, unknown = 0, over_free = 0, cameras = 0;
+  const size_t at = r.output.find("grid: ");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find(": ", at + 6) + 2,
+                        "%d free, %d occupied, %d unknown; %d of %d", &free, &occupied, &unknown,
+                        &over_free, &cameras),
+            5)
+      << r.output;
+  EXPECT_GT(cameras, 5);
+  EXPECT_EQ(over_free, cameras) << r.output;
+  EXPECT_GT(free, occupied) << r.output;
+  EXPECT_GT(occupied, 100) << r.output;
+  EXPECT_NE(ReadFileToString(path("grid.yaml")).find("image: grid.pgm\nmode: trinary\n"),
+            std::string::npos);
+  int width = 0, height = 0;
+  const std::string pgm = ReadFileToString(path("grid.pgm"));
+  ASSERT_EQ(std::sscanf(pgm.c_str(), "P5 %d %d 255", &width, &height), 2);
+  EXPECT_EQ(width * height, free + occupied + unknown);
+  EXPECT_TRUE(fs::exists(path("grid.png")));
+
+  r = testing::RunTool("render",
+                       "colmap " + map_flag + " --out " + Quote(path("colmap")) + " --frame floor");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(ReadFileToString(path("colmap") / "frame.txt").find("frame: floor"), std::string::npos);
+  r = testing::RunTool("render", "html --map " + Quote(aligned) + " --out " +
+                                     Quote(path("floor.html")) + " --frame floor");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(ReadFileToString(path("floor.html")).find("\"frame\":\"floor\""), std::string::npos);
+  r = testing::RunTool("render", "dense " + map_flag + " --out " + Quote(path("dense.ply")) +
+                                     " --voxel 0.04 --frame floor");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(ReadFileToString(path("dense.ply")).substr(0, 1500).find("frame: floor"),
+            std::string::npos);
+}
+
 // Offline merge (rrslam-mapstore merge): the loop mapped as two maps, frames
 // 0-69 and 50-119, each in its own world frame (its first frame's camera).
 // Merged, the second moves into the first's frame, which is the whole-loop

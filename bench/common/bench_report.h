@@ -1,13 +1,18 @@
 // What the benchmark drivers (bench/<name>/bench_<name>.cc) share: running a
-// command line, and a report of figures beside their goals written as text
+// command line (or a child process measured: wall time, CPU time, peak
+// memory), and a report of figures beside their goals written as text
 // and JSON to bench/results/.
 #pragma once
 
+#include <sys/resource.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -17,6 +22,7 @@
 #include <vector>
 
 #include "common/atomic_file.h"
+#include "common/clock.h"
 #include "common/text.h"
 
 namespace rrslam::bench {
@@ -31,6 +37,54 @@ inline int Run(const std::string& command) {
   std::cerr << "bench: " << command << std::endl;
   const int status = std::system(command.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+struct ChildRun {
+  int exit_code = -1;
+  double wall_s = 0;
+  double cpu_s = 0;         // User + system.
+  double max_rss_mb = 0;    // 10^6 bytes.
+  std::string stdout_text;  // What the child printed on stdout.
+};
+
+// Runs argv[0] with its arguments (stdout captured to `capture`, stderr
+// passed through) and measures it with wait4.
+inline ChildRun RunChild(const std::vector<std::string>& argv,
+                         const std::filesystem::path& capture) {
+  std::string line;
+  for (const std::string& a : argv) line += ShellQuote(a) + " ";
+  std::cerr << "bench: " << line << "> " << capture.string() << std::endl;
+  ChildRun run;
+  const auto start = SteadyClock::now();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    if (std::freopen(capture.c_str(), "w", stdout) == nullptr) _exit(126);
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    execv(args[0], args.data());
+    _exit(127);
+  }
+  int status = 0;
+  struct rusage usage {};
+  if (pid < 0 || wait4(pid, &status, 0, &usage) != pid) return run;
+  run.wall_s = MillisecondsSince(start) / 1000.0;
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  run.cpu_s = usage.ru_utime.tv_sec + usage.ru_utime.tv_usec * 1e-6 + usage.ru_stime.tv_sec +
+              usage.ru_stime.tv_usec * 1e-6;
+  run.max_rss_mb = usage.ru_maxrss * 1024.0 / 1e6;  // Linux: kilobytes.
+  std::ifstream in(capture);
+  std::stringstream text;
+  text << in.rdbuf();
+  run.stdout_text = text.str();
+  return run;
+}
+
+inline double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 struct Figure {

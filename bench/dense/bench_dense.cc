@@ -42,55 +42,11 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
+using rrslam::bench::ChildRun;
 using rrslam::bench::Figure;
+using rrslam::bench::Median;
 using rrslam::bench::Report;
-
-struct ChildRun {
-  int exit_code = -1;
-  double wall_s = 0;
-  double cpu_s = 0;         // User + system.
-  double max_rss_mb = 0;    // 10^6 bytes.
-  std::string stdout_text;  // What the child printed on stdout.
-};
-
-// Runs argv[0] with its arguments (stdout captured to `capture`, stderr
-// passed through) and measures it with wait4.
-ChildRun RunChild(const std::vector<std::string>& argv, const fs::path& capture) {
-  std::string line;
-  for (const std::string& a : argv) line += rrslam::ShellQuote(a) + " ";
-  std::cerr << "bench: " << line << "> " << capture.string() << std::endl;
-  ChildRun run;
-  const auto start = rrslam::SteadyClock::now();
-  const pid_t pid = fork();
-  if (pid == 0) {
-    if (std::freopen(capture.c_str(), "w", stdout) == nullptr) _exit(126);
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    execv(args[0], args.data());
-    _exit(127);
-  }
-  int status = 0;
-  struct rusage usage {};
-  if (pid < 0 || wait4(pid, &status, 0, &usage) != pid) return run;
-  run.wall_s = rrslam::MillisecondsSince(start) / 1000.0;
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  run.cpu_s = usage.ru_utime.tv_sec + usage.ru_utime.tv_usec * 1e-6 + usage.ru_stime.tv_sec +
-              usage.ru_stime.tv_usec * 1e-6;
-  run.max_rss_mb = usage.ru_maxrss * 1024.0 / 1e6;  // Linux: kilobytes.
-  std::ifstream in(capture);
-  std::stringstream text;
-  text << in.rdbuf();
-  run.stdout_text = text.str();
-  return run;
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+using rrslam::bench::RunChild;
 
 // "<name> X s" from rrslam-render dense's summary line; -1 when absent.
 double StageSeconds(const std::string& summary, const std::string& name) {

@@ -88,14 +88,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
+using rrslam::bench::Median;
 using rrslam::bench::Report;
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 // Nearest-rank percentile, q in (0, 1].
 double Percentile(std::vector<double> v, double q) {

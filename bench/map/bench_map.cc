@@ -76,6 +76,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
 using rrslam::bench::Figure;
+using rrslam::bench::Median;
 using rrslam::bench::Quote;
 using rrslam::bench::Report;
 using rrslam::bench::Run;
@@ -88,13 +89,6 @@ std::string TrackCommand(const fs::path& bin, const fs::path& seq, const fs::pat
 
 nlohmann::json ReadJson(const fs::path& p) {
   return nlohmann::json::parse(rrslam::ReadFileToString(p));
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 double Max(const std::vector<double>& v) {

@@ -17,27 +17,18 @@ KeyFrameRecord* FindKeyFrame(MapData* map, uint64_t id) {
 
 // Renumbers b's ids after a's and moves it by T_a_b.
 void MoveIntoA(const Rigid3d& T_a_b, uint64_t kf_offset, uint64_t point_offset, MapData* b) {
+  MoveMap(T_a_b, b);
   const auto kf_id = [&](uint64_t id) { return id == kNoId ? kNoId : id + kf_offset; };
   const auto point_id = [&](uint64_t id) { return id == kNoId ? kNoId : id + point_offset; };
-  const Rigid3d T_b_a = T_a_b.Inverse();
   for (KeyFrameRecord& kf : b->keyframes) {
     kf.id = kf_id(kf.id);
-    kf.T_cam_world = MapPoseOf(RigidOf(kf.T_cam_world) * T_b_a);
     for (uint64_t& p : kf.map_point_ids) p = point_id(p);
     for (auto& [other, weight] : kf.connections) other = kf_id(other);
     kf.parent = kf_id(kf.parent);
     for (uint64_t& other : kf.loop_edges) other = kf_id(other);
   }
-  const Eigen::Matrix3d R_a_b = T_a_b.RotationMatrix();
   for (MapPointRecord& p : b->map_points) {
     p.id = point_id(p.id);
-    const Eigen::Vector3d position =
-        T_a_b * Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
-    const Eigen::Vector3d normal = R_a_b * Eigen::Vector3d(p.normal[0], p.normal[1], p.normal[2]);
-    for (int i = 0; i < 3; ++i) {
-      p.position[i] = position[i];
-      p.normal[i] = normal[i];
-    }
     p.reference_keyframe = kf_id(p.reference_keyframe);
     p.first_keyframe = kf_id(p.first_keyframe);
     for (auto& [kf, index] : p.observations) kf = kf_id(kf);
@@ -78,6 +69,24 @@ MapPose MapPoseOf(const Rigid3d& T) {
   p.ty = T.translation.y();
   p.tz = T.translation.z();
   return p;
+}
+
+void MoveMap(const Rigid3d& T_new_old, MapData* map) {
+  const Rigid3d T_old_new = T_new_old.Inverse();
+  for (KeyFrameRecord& kf : map->keyframes) {
+    kf.T_cam_world = MapPoseOf(RigidOf(kf.T_cam_world) * T_old_new);
+  }
+  const Eigen::Matrix3d R_new_old = T_new_old.RotationMatrix();
+  for (MapPointRecord& p : map->map_points) {
+    const Eigen::Vector3d position =
+        T_new_old * Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
+    const Eigen::Vector3d normal =
+        R_new_old * Eigen::Vector3d(p.normal[0], p.normal[1], p.normal[2]);
+    for (int i = 0; i < 3; ++i) {
+      p.position[i] = position[i];
+      p.normal[i] = normal[i];
+    }
+  }
 }
 
 MapData JoinMaps(MapData a, MapData b, const Rigid3d& T_a_b, uint64_t a_keyframe,

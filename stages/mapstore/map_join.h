@@ -17,6 +17,11 @@ namespace rrslam {
 Rigid3d RigidOf(const MapPose& pose);
 MapPose MapPoseOf(const Rigid3d& T);
 
+// Every keyframe pose, map point position and normal of `map` moved into
+// another world frame by T_new_old (x_new = T_new_old * x_old); ids, graphs
+// and metadata unchanged.
+void MoveMap(const Rigid3d& T_new_old, MapData* map);
+
 // Map `b` moved into map `a`'s world frame by T_a_b and appended to `a`:
 // b's keyframe and map point ids follow a's (b's id + a's next id, so a's
 // ids are kept and b's keep their order), its poses, positions and normals

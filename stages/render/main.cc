@@ -1,5 +1,6 @@
 // rrslam-render: pictures, standard files and a browser viewer of saved maps
-// and trajectories, a dense model and a COLMAP model.
+// and trajectories, a dense model, a COLMAP model, an OctoMap and a
+// navigation grid.
 #include <CLI/CLI.hpp>
 
 #include "common/cli.h"
@@ -20,6 +21,11 @@ int main(int argc, char** argv) {
        "  dense       the keyframes' depth fused into a TSDF: coloured PLY and a PNG\n"
        "  colmap      a COLMAP sparse model (cameras, images, points3D) with the keyframe\n"
        "              images, for Gaussian splatting, NeRF and MVS tools\n"
+       "  octomap     the keyframes' depth as an OctoMap (.bt), floor-aligned, for robots\n"
+       "  grid        a 2D occupancy grid for navigation (ROS map_server / Nav2 YAML + PGM)\n"
+       "              and its picture with the keyframe trajectory\n"
+       "Coordinates: --frame camera (the first keyframe's camera) or floor (z up, on the\n"
+       "floor: rrslam-mapstore align-floor stores it); octomap and grid use floor.\n"
        "Run `rrslam-render <command> --help` for a command's flags."},
       [&](CLI::App& app) { rrslam::BindRenderCommands(app, &commands); },
       [&] { rrslam::RunRenderCommand(commands); });

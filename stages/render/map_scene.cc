@@ -109,61 +109,29 @@ std::vector<std::optional<size_t>> MatchKeyFrameTimestamps(
   return MatchTimestamps(queries, rgb_timestamps, kKeyFrameTimestampTolerance);
 }
 
-MapScene InFrame(const MapScene& scene, const Rigid3d& T) {
-  MapScene moved = scene;
-  for (ScenePoint& p : moved.points) {
-    p.position = T * p.position;
-    p.normal = T.rotation * p.normal;
-  }
-  for (SceneKeyFrame& kf : moved.keyframes) kf.T_world_cam = T * kf.T_world_cam;
-  return moved;
-}
-
 std::vector<size_t> KeyFrameFrames(const MapScene& scene, const RgbdSequence& sequence) {
   std::vector<double> stamps;
   for (const RgbdFrameRef& frame : sequence.frames()) stamps.push_back(frame.rgb_timestamp);
   const std::vector<std::optional<size_t>> matched = MatchKeyFrameTimestamps(scene, stamps);
   std::vector<size_t> frames;
+  std::optional<size_t> first_missing;
+  size_t missing = 0;
   for (size_t k = 0; k < matched.size(); ++k) {
-    if (!matched[k]) {
-      throw DataError(fmt::format("{}: keyframe {} (t = {:.6f}) has no frame in {}", scene.source,
-                                  scene.keyframes[k].id, scene.keyframes[k].timestamp,
-                                  sequence.dir().string()));
+    if (matched[k]) {
+      frames.push_back(*matched[k]);
+    } else if (missing++ == 0) {
+      first_missing = k;
     }
-    frames.push_back(*matched[k]);
+  }
+  if (first_missing) {
+    const SceneKeyFrame& keyframe = scene.keyframes[*first_missing];
+    throw DataError(fmt::format(
+        "{}: keyframe {} (t = {:.6f}) has no frame in {} ({} of {} keyframes have none: was the "
+        "map built from this sequence and --associations?)",
+        scene.source, keyframe.id, keyframe.timestamp, sequence.dir().string(), missing,
+        matched.size()));
   }
   return frames;
-}
-
-std::optional<Rigid3d> ExportFrame(const std::string& frame, const MapData& map,
-                                   const std::string& source,
-                                   const std::filesystem::path& sequence_dir) {
-  if (frame == "camera") return std::nullopt;
-  if (frame != "floor") throw UsageError("--frame " + frame + ": must be camera or floor");
-  if (auto stored = FloorFromMetadata(map.metadata)) return stored;
-  std::optional<RgbdSequence> sequence;
-  if (!sequence_dir.empty()) sequence = RgbdSequence::Open(sequence_dir);
-  constexpr int kDepthStride = 8;
-  const std::vector<Eigen::Vector3d> points =
-      FloorSearchPoints(map, sequence ? &*sequence : nullptr, kDepthStride, source);
-  if (auto found = FindFloor(map, points)) {
-    spdlog::info(
-        "render: floor found among {} of {} points of {} (not stored: rrslam-mapstore "
-        "align-floor stores it)",
-        found->inliers, found->points, source);
-    return found->T_floor_map;
-  }
-  spdlog::warn("render: no floor found in {}; the camera frame is kept", source);
-  return std::nullopt;
-}
-
-std::string FrameComment(const std::optional<Rigid3d>& T) {
-  if (!T) return kMapFrameComment;
-  return fmt::format(
-      "frame: floor (REP 103: z up, origin on the floor under the first keyframe, x along its "
-      "view), metres; T_floor_map q = ({:.9f} {:.9f} {:.9f} {:.9f}) t = ({:.6f} {:.6f} {:.6f})",
-      T->rotation.w(), T->rotation.x(), T->rotation.y(), T->rotation.z(), T->translation.x(),
-      T->translation.y(), T->translation.z());
 }
 
 MapScene LoadMapScene(const std::filesystem::path& path) {

@@ -60,6 +60,9 @@ struct MapScene {
   // (restore mapping), so `loaded` tells the two apart.
   bool has_loaded_part = false;
   std::string source;  // The file it came from (for messages and metadata).
+  // The world's up direction when the frame defines one (the floor frame's
+  // +z, export_frame.h); nullopt: the cameras' mean up stands in.
+  std::optional<Eigen::Vector3d> up;
 
   // Index of keyframe `id` in `keyframes`, or nullopt.
   std::optional<size_t> FindKeyFrame(uint64_t id) const;
@@ -71,25 +74,6 @@ struct MapScene {
 // map's next ids (metadata "loaded_map", written by rrslam-track --load-map
 // ... --save-map) are marked loaded.
 MapScene MakeMapScene(const MapData& map, const std::string& source);
-
-// The scene in another frame: every point, normal and keyframe pose mapped
-// by T_frame_world (e.g. the floor frame, mapstore's floor.h).
-MapScene InFrame(const MapScene& scene, const Rigid3d& T_frame_world);
-
-// `--frame`: "camera" (the map's world, nullopt) or "floor" (the floor frame
-// the map's metadata holds, `rrslam-mapstore align-floor`, else the floor
-// found among the map points and, given `sequence`, the keyframes' depth:
-// a textureless floor has few map points, and the synthetic room's
-// points alone give a table for the floor). Where no floor is found it says
-// so on stderr and returns nullopt: the camera frame is kept. Throws
-// UsageError for another name.
-std::optional<Rigid3d> ExportFrame(const std::string& frame, const MapData& map,
-                                   const std::string& source,
-                                   const std::filesystem::path& sequence = {});
-
-// The PLY comment naming the export's frame (ply.h's kMapFrameComment for
-// the camera frame).
-std::string FrameComment(const std::optional<Rigid3d>& T_floor_map);
 
 // For every keyframe of `scene` (in order), the index of its frame in a
 // sequence whose frames have `rgb_timestamps` (seconds): the nearest frame

@@ -17,6 +17,7 @@
 #include "common/trajectory.h"
 #include "common/worker_pool.h"
 #include "stages/mapstore/map_file.h"
+#include "stages/render/export_frame.h"
 #include "stages/render/image_file.h"
 #include "stages/render/map_scene.h"
 
@@ -97,7 +98,7 @@ bool RenderMapOptions::Check(std::string* why) const {
     *why = e.what();
     return false;
   }
-  return picture.Check(why);
+  return CheckFrameName(frame, why) && picture.Check(why);
 }
 
 std::vector<std::filesystem::path> RunRenderMap(const RenderMapOptions& options) {
@@ -106,13 +107,9 @@ std::vector<std::filesystem::path> RunRenderMap(const RenderMapOptions& options)
   MapPictureOptions picture = options.picture;
   picture.colouring = ParseColouring(options.colour);
   if (!options.viewpoint.empty()) picture.viewpoint = ReadViewpoint(options.viewpoint);
-  const MapData data = ReadMapFile(options.map);
-  MapScene scene = MakeMapScene(data, options.map.string());
-  const std::optional<Rigid3d> frame = ExportFrame(options.frame, data, options.map.string());
-  if (frame) {
-    scene = InFrame(scene, *frame);
-    picture.up = "z";
-  }
+  const FramedMap framed = LoadMapInFrame(options.map, options.frame);
+  const MapScene& scene = framed.scene;
+  if (framed.floor()) picture.up = "z";
   PrepareOutputFolder(options.out);
   // Views are drawn and encoded on two threads (each file is its own).
   std::vector<std::filesystem::path> written(options.views.size());
@@ -122,7 +119,7 @@ std::vector<std::filesystem::path> RunRenderMap(const RenderMapOptions& options)
     const MapPicture rendered = RenderMapPicture(scene, ParseView(name), picture);
     const std::filesystem::path path = options.out / ("map_" + name + ".png");
     nlohmann::ordered_json json = {
-        {"map", options.map.string()}, {"view", name}, {"frame", FrameComment(frame)}};
+        {"map", options.map.string()}, {"view", name}, {"frame", framed.comment}};
     json["picture"] = picture.ToJson();
     WritePicture(path, rendered.image, Metadata(rendered.title, json));
     written[i] = path;
@@ -210,8 +207,9 @@ bool RenderPlyOptions::Check(std::string* why) const {
     return false;
   }
   return CheckOutputNotInput(
-      {"--out", out}, {{"--map", map}, {"--sequence", sequence}, {"--associations", associations}},
-      why);
+             {"--out", out},
+             {{"--map", map}, {"--sequence", sequence}, {"--associations", associations}}, why) &&
+         CheckFrameName(frame, why);
 }
 
 PlyCloud MapPointCloud(const MapScene& scene, const std::filesystem::path& sequence_dir,
@@ -276,18 +274,15 @@ PlyCloud MapPointCloud(const MapScene& scene, const std::filesystem::path& seque
 std::filesystem::path RunRenderPly(const RenderPlyOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
-  const MapData data = ReadMapFile(options.map);
-  const std::optional<Rigid3d> frame =
-      ExportFrame(options.frame, data, options.map.string(), options.sequence);
-  MapScene scene = MakeMapScene(data, options.map.string());
-  if (frame) scene = InFrame(scene, *frame);
-  PlyCloud cloud = MapPointCloud(scene, options.sequence, options.associations);
+  const FramedMap framed =
+      LoadMapInFrame(options.map, options.frame, options.sequence, options.associations);
+  PlyCloud cloud = MapPointCloud(framed.scene, options.sequence, options.associations);
   cloud.comments.push_back("producer " + Producer("render"));
   cloud.comments.push_back("map " + options.map.string());
   cloud.comments.push_back(options.sequence.empty()
                                ? std::string("colour grey (no --sequence)")
                                : "colour from keyframe images of " + options.sequence.string());
-  cloud.comments.push_back(FrameComment(frame));
+  cloud.comments.push_back(framed.comment);
   WritePly(options.out, cloud, options.binary ? PlyFormat::kBinaryLittleEndian : PlyFormat::kAscii);
   return options.out;
 }
@@ -298,15 +293,16 @@ bool RenderColmapOptions::Check(std::string* why) const {
     return false;
   }
   return CheckOutputNotInput(
-      {"--out", out}, {{"--map", map}, {"--sequence", sequence}, {"--associations", associations}},
-      why);
+             {"--out", out},
+             {{"--map", map}, {"--sequence", sequence}, {"--associations", associations}}, why) &&
+         CheckFrameName(frame, why);
 }
 
 namespace {
 
 // The keyframes' colour images of `sequence`, in the map's keyframe order.
-std::vector<std::filesystem::path> KeyFrameImages(const MapScene& scene,
-                                                  const RenderColmapOptions& o) {
+std::vector<std::filesystem::path> KeyFrameImageFiles(const MapScene& scene,
+                                                      const RenderColmapOptions& o) {
   SequenceOptions sequence_options;
   sequence_options.associations = o.associations;
   const RgbdSequence sequence = RgbdSequence::Open(o.sequence, sequence_options);
@@ -335,12 +331,11 @@ std::vector<std::string> ImageNames(const std::vector<std::filesystem::path>& im
 std::vector<std::filesystem::path> RunRenderColmap(const RenderColmapOptions& o) {
   std::string why;
   if (!o.Check(&why)) throw UsageError(why);
-  const MapData map = ReadMapFile(o.map);
-  const MapScene scene = MakeMapScene(map, o.map.string());
-  const std::vector<std::filesystem::path> images = KeyFrameImages(scene, o);
+  const FramedMap framed = LoadMapInFrame(o.map, o.frame, o.sequence, o.associations);
+  const std::vector<std::filesystem::path> images = KeyFrameImageFiles(framed.scene, o);
   const std::vector<std::string> names = ImageNames(images);
-  const PlyCloud cloud = MapPointCloud(scene, o.sequence, o.associations);
-  const ColmapModel model = ColmapModelOf(map, names, cloud.colors);
+  const PlyCloud cloud = MapPointCloud(framed.scene, o.sequence, o.associations);
+  const ColmapModel model = ColmapModelOf(framed.data, names, cloud.colors);
   PrepareOutputFolder(o.out);
   const std::filesystem::path image_dir = o.out / "images", model_dir = o.out / "sparse" / "0";
   for (const std::filesystem::path& dir : {image_dir, model_dir}) {
@@ -355,6 +350,9 @@ std::vector<std::filesystem::path> RunRenderColmap(const RenderColmapOptions& o)
   }
   WriteColmapModel(model, model_dir, o.binary);
   written.push_back(model_dir);
+  written.push_back(o.out / "frame.txt");
+  WriteFileAtomically(written.back(),
+                      "# rrslam-render colmap of " + o.map.string() + "\n" + framed.comment + "\n");
   spdlog::info("render: COLMAP model of {} images, {} points in {}", model.images.size(),
                model.points.size(), model_dir.string());
   return written;
@@ -380,11 +378,7 @@ void BindRenderCommands(CLI::App& app, RenderCommands* c) {
                   "Point colour: height, observations, or age (loaded vs. added after restore "
                   "mapping; else creation order)")
       ->capture_default_str();
-  map->add_option("--frame", c->map.frame,
-                  "camera (the map's world) or floor (z up, origin on the floor: the frame "
-                  "rrslam-mapstore align-floor stored, else the floor found among the points)")
-      ->check(CLI::IsMember({"camera", "floor"}))
-      ->capture_default_str();
+  AddFrameOption(map, &c->map.frame);
   map->add_option("--up", c->map.picture.up, "World axis pointing up (first camera level: -y)")
       ->capture_default_str();
   map->add_option("--width", c->map.picture.width_px, "Image width, pixels [320, 8000]")
@@ -441,11 +435,7 @@ void BindRenderCommands(CLI::App& app, RenderCommands* c) {
   ply->add_flag("--binary,!--ascii", c->ply.binary,
                 "PLY as binary little-endian (default: 3x smaller, exact floats, read as fast as "
                 "any viewer can) or --ascii");
-  ply->add_option("--frame", c->ply.frame,
-                  "camera (the map's world) or floor (z up, origin on the floor: the frame "
-                  "rrslam-mapstore align-floor stored, else the floor found among the points)")
-      ->check(CLI::IsMember({"camera", "floor"}))
-      ->capture_default_str();
+  AddFrameOption(ply, &c->ply.frame);
   ply->callback([c] { c->chosen = "ply"; });
 
   CLI::App* html = app.add_subcommand(
@@ -470,7 +460,20 @@ void BindRenderCommands(CLI::App& app, RenderCommands* c) {
   colmap->add_option("--out", c->colmap.out, "Output folder (created when missing)")->required();
   colmap->add_flag("--binary", c->colmap.binary,
                    "cameras.bin, images.bin, points3D.bin instead of the .txt files");
+  AddFrameOption(colmap, &c->colmap.frame);
   colmap->callback([c] { c->chosen = "colmap"; });
+
+  CLI::App* octomap = app.add_subcommand(
+      "octomap", "Keyframe depth integrated into an OctoMap (.bt: free, occupied, unknown)");
+  BindOctomapOptions(octomap, &c->octomap);
+  octomap->callback([c] { c->chosen = "octomap"; });
+
+  CLI::App* grid = app.add_subcommand(
+      "grid",
+      "2D occupancy grid for navigation in the floor frame (map_server YAML + PGM, and a PNG "
+      "picture); exit 75 when the map has no floor");
+  BindGridOptions(grid, &c->grid);
+  grid->callback([c] { c->chosen = "grid"; });
 }
 
 void RunRenderCommand(const RenderCommands& c) {
@@ -488,8 +491,13 @@ void RunRenderCommand(const RenderCommands& c) {
     RunDense(c.dense);
   } else if (c.chosen == "colmap") {
     RunRenderColmap(c.colmap);
+  } else if (c.chosen == "octomap") {
+    RunOctomap(c.octomap);
+  } else if (c.chosen == "grid") {
+    RunGrid(c.grid);
   } else {
-    throw UsageError("a command is required: map, trajectory, ply, html, dense or colmap");
+    throw UsageError(
+        "a command is required: map, trajectory, ply, html, dense, colmap, octomap or grid");
   }
 }
 

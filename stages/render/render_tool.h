@@ -1,7 +1,8 @@
-// The commands of `rrslam-render`: map, trajectory, ply, html, dense, colmap. Each
-// has an options struct (defaults, units, Check) and a Run function; main.cc
-// only binds them to CLI11 subcommands. html and dense live in html/ and
-// dense/ (html_viewer.h, dense_model.h).
+// The commands of `rrslam-render`: map, trajectory, ply, html, dense, colmap,
+// octomap, grid. Each has an options struct (defaults, units, Check) and a
+// Run function; main.cc only binds them to CLI11 subcommands. html, dense,
+// octomap and grid live in html/, dense/ and octomap/ (html_viewer.h,
+// dense_model.h, occupancy_map.h, occupancy_grid.h).
 //
 // Picture outputs go into a folder (--out DIR, created when missing; its
 // parent must exist): each file is written atomically and files of other
@@ -16,6 +17,8 @@
 #include "stages/render/dense/dense_model.h"
 #include "stages/render/html/html_viewer.h"
 #include "stages/render/map_picture.h"
+#include "stages/render/octomap/occupancy_grid.h"
+#include "stages/render/octomap/occupancy_map.h"
 #include "stages/render/ply.h"
 #include "stages/render/trajectory_picture.h"
 
@@ -32,7 +35,7 @@ struct RenderMapOptions {
   std::vector<std::string> views = {"top", "side", "front", "perspective"};
   std::filesystem::path viewpoint;  // Settings file with Viewer.Viewpoint*; empty = automatic.
   std::string colour = "height";    // height, observations, age.
-  std::string frame = "camera";     // camera or floor (ExportFrame, map_scene.h); floor: up = z.
+  std::string frame = "camera";     // camera or floor (export_frame.h); floor: up = z.
   MapPictureOptions picture;  // Size, up axis, what is drawn (colouring/viewpoint set from above).
 
   bool Check(std::string* why) const;
@@ -57,7 +60,7 @@ struct RenderPlyOptions {
   std::filesystem::path
       associations;    // As rrslam-track's --associations (relative to the sequence).
   bool binary = true;  // binary_little_endian (--binary, the default); false: ASCII (--ascii).
-  std::string frame = "camera";  // camera or floor (ExportFrame, map_scene.h).
+  std::string frame = "camera";  // camera or floor (export_frame.h).
 
   bool Check(std::string* why) const;
 };
@@ -71,6 +74,7 @@ struct RenderColmapOptions {
   std::filesystem::path associations;  // As rrslam-track's --associations.
   std::filesystem::path out;           // Folder (created when missing).
   bool binary = false;                 // .bin instead of .txt (--binary).
+  std::string frame = "camera";        // camera or floor (export_frame.h); DIR/frame.txt names it.
 
   bool Check(std::string* why) const;
 };
@@ -82,6 +86,8 @@ struct RenderCommands {
   HtmlOptions html;
   DenseOptions dense;
   RenderColmapOptions colmap;
+  OctomapOptions octomap;
+  GridOptions grid;
   std::string chosen;
 };
 void BindRenderCommands(CLI::App& app, RenderCommands* commands);

@@ -241,6 +241,31 @@ TEST_F(RenderTool, FloorFrameKeepsTheCameraFrameWhereNoFloorIsFound) {
             64);
 }
 
+// The wall map has no floor: octomap keeps the camera frame (and says so),
+// grid refuses with exit 75 (heights need a floor) and writes nothing.
+TEST_F(RenderTool, OctomapKeepsTheCameraFrameAndGridNeedsAFloor) {
+  const std::string inputs = " --map " + path("m.rrm") + " --sequence " + path("seq");
+  const auto octomap = RunTool("render", "octomap" + inputs + " --out " + path("m.bt"));
+  ASSERT_EQ(octomap.exit_code, 0) << octomap.output;
+  EXPECT_NE(octomap.output.find("no floor found"), std::string::npos) << octomap.output;
+  const std::string header = ReadFileToString(dir_ / "m.bt").substr(0, 800);
+  EXPECT_EQ(header.rfind("# Octomap OcTree binary file\n", 0), 0u) << header;
+  EXPECT_NE(header.find(kMapFrameComment), std::string::npos) << header;
+
+  const auto grid = RunTool("render", "grid" + inputs + " --out " + path("grid.yaml"));
+  EXPECT_EQ(grid.exit_code, 75) << grid.output;
+  EXPECT_NE(grid.output.find("m.rrm: no floor found"), std::string::npos) << grid.output;
+  for (const char* name : {"grid.yaml", "grid.pgm", "grid.png"}) {
+    EXPECT_FALSE(std::filesystem::exists(dir_ / name)) << name;
+  }
+  EXPECT_EQ(RunTool("render", "grid" + inputs + " --out " + path("grid.yaml") +
+                                  " --min-height 2 --max-height 1")
+                .exit_code,
+            64);
+  EXPECT_EQ(RunTool("render", "octomap" + inputs + " --out " + path("nofolder/m.bt")).exit_code,
+            73);
+}
+
 TEST_F(RenderTool, TrajectoryAgainstGroundTruth) {
   Trajectory gt, est;
   for (int i = 0; i < 200; ++i) {

@@ -25,7 +25,9 @@
 #include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/text.h"
+#include "stages/render/export_frame.h"
 #include "stages/render/image_file.h"
+#include "stages/render/keyframe_images.h"
 #include "stages/render/map_scene.h"
 
 namespace rrslam {
@@ -91,7 +93,7 @@ void ClipDepth(cv::Mat* depth, float max_depth) {
   }
 }
 
-void CheckImages(const DenseImages& view, const DenseCamera& camera, size_t index,
+void CheckImages(const KeyFrameView& view, const KeyFrameCamera& camera, size_t index,
                  bool with_color) {
   if (view.depth.type() != CV_32FC1 || view.depth.cols != camera.width ||
       view.depth.rows != camera.height) {
@@ -195,7 +197,7 @@ class ColorAccumulator {
 
   // Adds one view's colours (depth: clipped metres; color: BGR).
   void AddView(const cv::Mat& depth, const cv::Mat& color, const Rigid3d& T_world_cam,
-               const DenseCamera& camera, double tolerance) {
+               const KeyFrameCamera& camera, double tolerance) {
     if (sums_.size() != points_.size()) sums_.assign(points_.size(), Eigen::Vector4f::Zero());
     if (behind_.size() != points_.size()) behind_.assign(points_.size(), Eigen::Vector4f::Zero());
     const Rigid3d T_cam_world = T_world_cam.Inverse();
@@ -484,7 +486,7 @@ bool DenseOptions::Check(std::string* why) const {
   if (threads < 1 || threads > 64) {
     return Fail(why, "--threads = " + std::to_string(threads) + "; must be in [1, 64]");
   }
-  return true;
+  return CheckFrameName(frame, why);
 }
 
 nlohmann::ordered_json DenseOptions::ToJson() const {
@@ -499,7 +501,8 @@ nlohmann::ordered_json DenseOptions::ToJson() const {
           {"binary", binary},
           {"max_volume_gb", max_volume_gb},
           {"image_width", image_width},
-          {"threads", threads}};
+          {"threads", threads},
+          {"frame", frame}};
 }
 
 void BindDenseOptions(CLI::App* command, DenseOptions* o) {
@@ -536,6 +539,7 @@ void BindDenseOptions(CLI::App* command, DenseOptions* o) {
                    "Width of the rendering, pixels (height: the camera's aspect ratio)")
       ->capture_default_str();
   command->add_option("--threads", o->threads, "OpenCV worker threads")->capture_default_str();
+  AddFrameOption(command, &o->frame);
 }
 
 nlohmann::ordered_json DenseResult::ToJson() const {
@@ -571,7 +575,7 @@ nlohmann::ordered_json DenseResult::ToJson() const {
 // ---------------------------------------------------------------------------
 // The model
 
-DenseModel BuildDenseModel(const DenseOptions& options, const DenseCamera& camera,
+DenseModel BuildDenseModel(const DenseOptions& options, const KeyFrameCamera& camera,
                            const std::vector<Rigid3d>& T_world_cams, const DenseImageLoader& load) {
   const size_t count = T_world_cams.size();
   if (count == 0) throw DataError("no views to fuse");
@@ -603,7 +607,7 @@ DenseModel BuildDenseModel(const DenseOptions& options, const DenseCamera& camer
   // max_depth.
   auto start = SteadyClock::now();
   for (size_t i = 0; i < count; ++i) {
-    DenseImages images = load(i, false);
+    KeyFrameView images = load(i, false);
     CheckImages(images, camera, i, false);
     ClipDepth(&images.depth, max_depth);
     const Eigen::Matrix3d R = R_volume_world * T_world_cams[i].RotationMatrix();
@@ -680,7 +684,7 @@ DenseModel BuildDenseModel(const DenseOptions& options, const DenseCamera& camer
                                    static_cast<float>(camera.cx), static_cast<float>(camera.cy));
   cv::Mat rgba, rgba_float;
   for (size_t i = 0; i < count; ++i) {
-    DenseImages images = load(i, true);
+    KeyFrameView images = load(i, true);
     CheckImages(images, camera, i, true);
     ClipDepth(&images.depth, max_depth);
     cv::cvtColor(images.color, rgba, cv::COLOR_BGR2RGBA);
@@ -789,7 +793,7 @@ DenseModel BuildDenseModel(const DenseOptions& options, const DenseCamera& camer
     }
   }
   for (size_t i = 0; i < count; ++i) {
-    DenseImages images = load(i, true);
+    KeyFrameView images = load(i, true);
     CheckImages(images, camera, i, true);
     ClipDepth(&images.depth, max_depth);
     colors_from_views.AddView(images.depth, images.color, T_world_cams[i], camera, truncation);
@@ -837,145 +841,16 @@ void CheckOutputFolders(const std::vector<fs::path>& outputs) {
   }
 }
 
-// Refuses a map without keyframes or with a camera the fusion cannot use.
-void CheckMapScene(const MapScene& scene, const std::string& map_name) {
-  if (scene.keyframes.empty()) throw DataError(map_name + ": the map has no keyframes");
-  const MapCamera& map_camera = scene.camera;
-  if (!(map_camera.depth_map_factor > 0)) {
-    throw DataError(map_name + ": camera depth_map_factor " +
-                    Format("%g", map_camera.depth_map_factor) + "; must be > 0");
-  }
-  // The camera sizes the undistortion maps (8 bytes a pixel, made before any
-  // image is read) and the images: checked against the images' cap (OpenCV's
-  // remap also asserts below 32767 pixels a side) and for finite values.
-  if (map_camera.width <= 0 || map_camera.height <= 0 || map_camera.width > kMaxImageSide ||
-      map_camera.height > kMaxImageSide) {
-    throw DataError(map_name + ": camera image size " + std::to_string(map_camera.width) + "x" +
-                    std::to_string(map_camera.height) + "; must be in [1, " +
-                    std::to_string(kMaxImageSide) + "] a side");
-  }
-  for (const double value :
-       {map_camera.fx, map_camera.fy, map_camera.cx, map_camera.cy, map_camera.k1, map_camera.k2,
-        map_camera.p1, map_camera.p2, map_camera.k3}) {
-    if (!std::isfinite(value)) {
-      throw DataError(map_name + ": camera intrinsics or distortion not finite");
-    }
-  }
-}
-
-RgbdSequence OpenSequence(const DenseOptions& options, const MapCamera& map_camera,
-                          const std::string& map_name) {
-  SequenceOptions sequence_options;
-  sequence_options.associations = options.associations;
-  // Images are refused from their headers when larger than the map's camera
-  // (and kMaxImageSide), before they are decoded.
-  sequence_options.max_image_size = {map_camera.width, map_camera.height,
-                                     "the camera of " + map_name};
-  return RgbdSequence::Open(options.sequence, sequence_options);
-}
-
-// Each keyframe's frame, by rgb timestamp; throws when one has none.
-std::vector<size_t> MatchKeyFramesToFrames(const MapScene& scene, const RgbdSequence& sequence,
-                                           const DenseOptions& options,
-                                           const std::string& map_name) {
-  std::vector<double> stamps;
-  stamps.reserve(sequence.size());
-  for (size_t i = 0; i < sequence.size(); ++i) stamps.push_back(sequence.frame(i).rgb_timestamp);
-  const std::vector<std::optional<size_t>> matched = MatchKeyFrameTimestamps(scene, stamps);
-  std::vector<size_t> frame_of(scene.keyframes.size());
-  size_t missing = 0;
-  std::string first_missing;
-  for (size_t k = 0; k < scene.keyframes.size(); ++k) {
-    if (matched[k]) {
-      frame_of[k] = *matched[k];
-      continue;
-    }
-    if (missing++ == 0) {
-      first_missing = "keyframe " + std::to_string(scene.keyframes[k].id) + " at " +
-                      Format("%.6f", scene.keyframes[k].timestamp);
-    }
-  }
-  if (missing > 0) {
-    throw DataError(map_name + ": " + std::to_string(missing) + " of " +
-                    std::to_string(scene.keyframes.size()) + " keyframes have no frame in " +
-                    options.sequence.string() + " (first: " + first_missing +
-                    "); was the map built from this sequence (and --associations)?");
-  }
-  return frame_of;
-}
-
-bool HasDistortion(const MapCamera& map_camera) {
-  return map_camera.k1 != 0 || map_camera.k2 != 0 || map_camera.p1 != 0 || map_camera.p2 != 0 ||
-         map_camera.k3 != 0;
-}
-
-// The keyframes' images from the sequence, checked against the map's camera.
-//
-// Undistortion to ideal pixels, when the camera has lens distortion: both
-// images through one map (TUM's depth is registered to the colour image);
-// depth with the nearest neighbour, so no depth is blended across edges.
-class KeyFrameImages {
- public:
-  KeyFrameImages(const RgbdSequence& sequence, std::vector<size_t> frame_of,
-                 const MapCamera& map_camera, const DenseCamera& camera)
-      : sequence_(sequence),
-        frame_of_(std::move(frame_of)),
-        depth_map_factor_(map_camera.depth_map_factor),
-        camera_(camera) {
-    if (HasDistortion(map_camera) && camera.width > 0 && camera.height > 0) {
-      const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-      const cv::Matx<double, 1, 5> D(map_camera.k1, map_camera.k2, map_camera.p1, map_camera.p2,
-                                     map_camera.k3);
-      cv::initUndistortRectifyMap(K, D, cv::noArray(), K, cv::Size(camera.width, camera.height),
-                                  CV_32FC1, undistort_x_, undistort_y_);
-    }
-  }
-
-  // The images of keyframe `index` (a DenseImageLoader).
-  DenseImages Load(size_t index, bool with_color) const {
-    const size_t frame = frame_of_[index];
-    DenseImages images;
-    images.depth = sequence_.LoadDepthMetres(frame, depth_map_factor_);
-    if (images.depth.cols != camera_.width || images.depth.rows != camera_.height) {
-      throw DataError(sequence_.frame(frame).depth_path.string() + ": " +
-                      std::to_string(images.depth.cols) + "x" + std::to_string(images.depth.rows) +
-                      " depth; the map's camera is " + std::to_string(camera_.width) + "x" +
-                      std::to_string(camera_.height));
-    }
-    if (with_color) {
-      images.color = sequence_.LoadColor(frame);
-      CheckSameSize(images.color, images.depth, sequence_.frame(frame).depth_path);
-    }
-    if (!undistort_x_.empty()) {
-      cv::Mat depth, color;
-      cv::remap(images.depth, depth, undistort_x_, undistort_y_, cv::INTER_NEAREST,
-                cv::BORDER_CONSTANT, 0);
-      images.depth = depth;
-      if (with_color) {
-        cv::remap(images.color, color, undistort_x_, undistort_y_, cv::INTER_LINEAR,
-                  cv::BORDER_CONSTANT, 0);
-        images.color = color;
-      }
-    }
-    return images;
-  }
-
- private:
-  const RgbdSequence& sequence_;
-  const std::vector<size_t> frame_of_;  // Sequence frame of each keyframe.
-  const double depth_map_factor_;
-  const DenseCamera camera_;
-  cv::Mat undistort_x_, undistort_y_;  // Empty: no lens distortion.
-};
-
 // The PLY's header comments: what produced the points, from what, and how.
 std::vector<std::string> CloudComments(const std::string& producer,
                                        const nlohmann::ordered_json& options_json,
-                                       const std::string& map_name, const DenseResult& result) {
+                                       const std::string& map_name,
+                                       const std::string& frame_comment,
+                                       const DenseResult& result) {
   const Eigen::Vector3d& o = result.volume_origin;
   return {"producer " + producer,
           "rrslam-render dense: TSDF surface points (OpenCV rgbd COLOREDTSDF) of " + map_name,
-          kMapFrameComment,
+          frame_comment,
           "options " + DumpJson(options_json),
           "volume voxel " + Format("%g", result.voxel) + " truncation " +
               Format("%g", result.truncation) + " origin " + Format("%.6f", o.x()) + " " +
@@ -1014,12 +889,13 @@ ImageMetadata RenderingMetadata(const std::string& producer,
 
 // Outputs, each written atomically: the point cloud, then the rendering.
 void WriteOutputs(const DenseOptions& options, const fs::path& image_path,
-                  const std::string& map_name, DenseModel* model) {
+                  const std::string& map_name, const std::string& frame_comment,
+                  DenseModel* model) {
   const auto start = SteadyClock::now();
   DenseResult& result = model->result;
   const std::string producer = Producer("render");
   const nlohmann::ordered_json options_json = options.ToJson();
-  model->cloud.comments = CloudComments(producer, options_json, map_name, result);
+  model->cloud.comments = CloudComments(producer, options_json, map_name, frame_comment, result);
   WritePly(options.out, model->cloud,
            options.binary ? PlyFormat::kBinaryLittleEndian : PlyFormat::kAscii);
   WritePicture(image_path, model->rendering,
@@ -1050,27 +926,24 @@ DenseResult RunDense(const DenseOptions& options) {
   const fs::path image_path = options.ImagePath();
   CheckOutputFolders({options.out, image_path});
 
-  const MapScene scene = LoadMapScene(options.map);
+  const FramedMap framed =
+      LoadMapInFrame(options.map, options.frame, options.sequence, options.associations);
+  const MapScene& scene = framed.scene;
   const std::string map_name = options.map.string();
-  CheckMapScene(scene, map_name);
-  const MapCamera& map_camera = scene.camera;
-  const RgbdSequence sequence = OpenSequence(options, map_camera, map_name);
-  std::vector<size_t> frame_of = MatchKeyFramesToFrames(scene, sequence, options, map_name);
-
-  const DenseCamera camera{map_camera.fx, map_camera.fy,    map_camera.cx,
-                           map_camera.cy, map_camera.width, map_camera.height};
-  const KeyFrameImages images(sequence, std::move(frame_of), map_camera, camera);
+  CheckFusableMap(scene);
+  const KeyFrameImages images(scene, options.sequence, options.associations);
+  const KeyFrameCamera& camera = images.camera();
   const DenseImageLoader load = [&images](size_t index, bool with_color) {
     return images.Load(index, with_color);
   };
   spdlog::info("dense: fusing {} keyframes of {} ({}x{}{})", scene.keyframes.size(), map_name,
-               camera.width, camera.height, HasDistortion(map_camera) ? ", undistorted" : "");
+               camera.width, camera.height, images.undistorts() ? ", undistorted" : "");
   std::vector<Rigid3d> poses;
   poses.reserve(scene.keyframes.size());
   for (const SceneKeyFrame& keyframe : scene.keyframes) poses.push_back(keyframe.T_world_cam);
   DenseModel model = BuildDenseModel(options, camera, poses, load);
 
-  WriteOutputs(options, image_path, map_name, &model);
+  WriteOutputs(options, image_path, map_name, framed.comment, &model);
   PrintSummary(model.result, options, image_path);
   return model.result;
 }

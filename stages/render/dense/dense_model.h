@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "common/geometry.h"
+#include "stages/render/keyframe_images.h"
 #include "stages/render/ply.h"
 
 namespace CLI {
@@ -85,6 +86,9 @@ struct DenseOptions {
   // OpenCV worker threads for fusion, export and raycasting, in [1, 64]
   // (--threads).
   int threads = 2;
+  // The model's frame, camera or floor (export_frame.h): the keyframes are
+  // fused at their poses in it (--frame).
+  std::string frame = "camera";
 
   // The truncation distance used: `truncation`, or 4 voxels when it is 0.
   double EffectiveTruncation() const { return truncation > 0 ? truncation : 4 * voxel; }
@@ -98,19 +102,6 @@ struct DenseOptions {
 
 // Binds the options to flags of the `dense` command.
 void BindDenseOptions(CLI::App* command, DenseOptions* options);
-
-// The pinhole camera of the fused images (ideal pixels: images with lens
-// distortion are undistorted before fusion).
-struct DenseCamera {
-  double fx = 0, fy = 0, cx = 0, cy = 0;  // Pixels.
-  int width = 0, height = 0;              // Pixels.
-};
-
-// The images of one view.
-struct DenseImages {
-  cv::Mat depth;  // CV_32FC1, metres along the optical axis; 0 = none.
-  cv::Mat color;  // CV_8UC3 BGR, the depth's size; may be empty when not asked for.
-};
 
 // The volume's axes in the world (columns x, y, z of R_world_volume) for
 // views with these camera poses: the z axis points against every view's
@@ -126,7 +117,7 @@ Eigen::Matrix3d ChooseDenseVolumeAxes(const std::vector<Rigid3d>& T_world_cams,
 // Loads the images of view `index`; `with_color` false: the colour image is
 // not needed (the bounds pass). Called three times per view (bounds, fusion,
 // colours), from one thread.
-using DenseImageLoader = std::function<DenseImages(size_t index, bool with_color)>;
+using DenseImageLoader = std::function<KeyFrameView(size_t index, bool with_color)>;
 
 struct DenseResult {
   size_t keyframes_fused = 0;
@@ -189,7 +180,7 @@ struct DenseModel {
 // (naming a --voxel that fits), DataError when a view's images do not fit the
 // camera or no view has depth within max_depth, AlgorithmError when the volume
 // has no surface.
-DenseModel BuildDenseModel(const DenseOptions& options, const DenseCamera& camera,
+DenseModel BuildDenseModel(const DenseOptions& options, const KeyFrameCamera& camera,
                            const std::vector<Rigid3d>& T_world_cams, const DenseImageLoader& load);
 
 // `rrslam-render dense`: reads the map and the sequence, builds the model,

@@ -437,7 +437,7 @@ TEST(DenseModel, PlaneAndBoxLandWhereTheyAre) {
   DenseOptions options;
   options.image_width = 320;
   const DenseImageLoader load = [&](size_t i, bool with_color) {
-    DenseImages images;
+    KeyFrameView images;
     cv::Mat color;
     RenderView(scene, camera, poses.at(i), &images.depth, &color);
     if (with_color) images.color = color;
@@ -491,7 +491,7 @@ TEST(DenseModel, MaxDepthClips) {
   options.image_width = 64;
   options.max_depth = 1.1;
   const DenseImageLoader load = [&](size_t i, bool) {
-    DenseImages images;
+    KeyFrameView images;
     RenderView(scene, camera, poses.at(i), &images.depth, &images.color);
     return images;
   };

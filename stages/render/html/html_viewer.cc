@@ -13,6 +13,7 @@
 #include "common/atomic_file.h"
 #include "common/cli.h"
 #include "common/errors.h"
+#include "stages/render/export_frame.h"
 #include "stages/render/html/viewer_script.h"
 
 namespace rrslam {
@@ -170,7 +171,7 @@ bool HtmlOptions::Check(std::string* why) const {
   if (title.find_first_of("\r\n") != std::string::npos) {
     return Fail(why, "title: must be one line");
   }
-  return true;
+  return CheckFrameName(frame, why);
 }
 
 nlohmann::ordered_json HtmlOptions::ToJson() const {
@@ -182,6 +183,7 @@ nlohmann::ordered_json HtmlOptions::ToJson() const {
   for (const auto& path : est) j["est"].push_back(path.string());
   j["out"] = out.string();
   j["title"] = title;
+  j["frame"] = frame;
   return j;
 }
 
@@ -196,6 +198,7 @@ void BindHtmlOptions(CLI::App* command, HtmlOptions* options) {
                       "Trajectory (TUM) already in the map's frame, e.g. CameraTrajectory.txt; "
                       "repeatable");
   command->add_option("--title", options->title, "Page title (default: the map's file name)");
+  AddFrameOption(command, &options->frame);
 }
 
 // ---------------------------------------------------------------------------
@@ -214,6 +217,7 @@ Eigen::Matrix3d ViewFromMap(const MapScene& scene) {
   // on forward: a scan all around a room), and the map's own axis stands in.
   Eigen::Vector3d up = up_sum / n;
   up = up.norm() < 0.3 ? Eigen::Vector3d(0, -1, 0) : up.normalized();
+  if (scene.up) up = scene.up->normalized();
   auto horizontal = [&up](const Eigen::Vector3d& v) { return v - v.dot(up) * up; };
   Eigen::Vector3d forward = horizontal(forward_sum / n);
   if (forward.norm() < 0.3) forward = horizontal(Eigen::Vector3d::UnitZ());
@@ -345,7 +349,8 @@ std::string BuildViewerHtml(
 void RunHtml(const HtmlOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
-  const MapScene scene = LoadMapScene(options.map);
+  const FramedMap framed = LoadMapInFrame(options.map, options.frame);
+  const MapScene& scene = framed.scene;
   spdlog::info("{}: {} map points, {} keyframes", options.map.string(), scene.points.size(),
                scene.keyframes.size());
   std::vector<std::pair<std::string, Trajectory>> trajectories;
@@ -356,7 +361,11 @@ void RunHtml(const HtmlOptions& options) {
     spdlog::info("{}: {} poses, aligned to the map's keyframes", path.string(), gt.size());
   }
   for (const auto& path : options.est) {
-    trajectories.emplace_back(ShortName(path), ReadTumTrajectory(path));
+    Trajectory est = ReadTumTrajectory(path);
+    if (framed.T_floor_map) {
+      for (StampedPose& pose : est) pose.T_world_cam = *framed.T_floor_map * pose.T_world_cam;
+    }
+    trajectories.emplace_back(ShortName(path), std::move(est));
     spdlog::info("{}: {} poses", path.string(), trajectories.back().second.size());
   }
   const std::string title = options.title.empty() ? options.map.filename().string() : options.title;

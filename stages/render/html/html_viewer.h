@@ -63,6 +63,8 @@ struct HtmlOptions {
                                            // frame (e.g. CameraTrajectory.txt). Optional.
   std::filesystem::path out;               // --out: the HTML file. Required.
   std::string title;                       // --title: page title; empty = the map's file name.
+  std::string frame = "camera";            // --frame: camera or floor (export_frame.h); --est
+                                           // trajectories are moved into it.
 
   // False (and `why` names the option) when map or out is missing, a gt/est
   // entry is empty, or the title holds a line break.
@@ -71,12 +73,13 @@ struct HtmlOptions {
   nlohmann::ordered_json ToJson() const;
 };
 
-// Adds --map, --gt, --est, --out and --title to `command` (the `html`
+// Adds --map, --gt, --est, --out, --title and --frame to `command` (the `html`
 // subcommand).
 void BindHtmlOptions(CLI::App* command, HtmlOptions* options);
 
 // The rotation R_view_map from the map's world frame to the viewer's view
-// frame: y up = the keyframes' mean up direction (-y of each camera), -z =
+// frame: y up = the scene's up when it has one (the floor frame's z), else
+// the keyframes' mean up direction (-y of each camera), -z =
 // their mean viewing direction (+z of each camera) made horizontal, x = right.
 // Falls back to the map frame's own -y (up) and +z (forward) when the
 // keyframes do not agree on one (mean vector shorter than 0.3) or there are
