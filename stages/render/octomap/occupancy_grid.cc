@@ -1,13 +1,13 @@
 #include "stages/render/octomap/occupancy_grid.h"
 
 #include <fmt/format.h>
+#include <octomap/OcTree.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
 #include <iostream>
-#include <octomap/OcTree.h>
 #include <opencv2/imgproc.hpp>
 
 #include "common/atomic_file.h"
@@ -214,52 +214,41 @@ std::filesystem::path GridOptions::ImagePath() const {
 }
 
 bool GridOptions::Check(std::string* why) const {
-  if (map.empty() || sequence.empty() || out.empty()) {
-    return FailGrid(why, "--map, --sequence and --out are required");
-  }
+  if (out.empty()) return FailGrid(why, "--out is required");
   if (AsciiLowercase(out.extension().string()) != ".yaml") {
     return FailGrid(why, "--out " + out.string() + " must be a .yaml file (map_server's map)");
   }
   if (AsciiLowercase(ImagePath().extension().string()) != ".png") {
     return FailGrid(why, "--image " + ImagePath().string() + " must be a .png file");
   }
-  if (!CheckOutputs({{"--out", out}, {"--out (.pgm)", PgmPath()}, {"--image", ImagePath()}},
-                    {{"--map", map}, {"--sequence", sequence}, {"--associations", associations}},
-                    why)) {
+  if (!input.Check({{"--out", out}, {"--out (.pgm)", PgmPath()}, {"--image", ImagePath()}}, why)) {
     return false;
   }
   if (!(min_height >= 0 && max_height > min_height && max_height < 100)) {
     return FailGrid(why, "--min-height " + Format("%g", min_height) + ", --max-height " +
-                         Format("%g", max_height) + ": must satisfy 0 <= min < max < 100 m");
+                             Format("%g", max_height) + ": must satisfy 0 <= min < max < 100 m");
   }
   if (pixels_per_cell < 0 || pixels_per_cell > 32) {
     return FailGrid(why, "--pixels-per-cell = " + std::to_string(pixels_per_cell) +
-                         "; must be in [0, 32] (0: automatic)");
+                             "; must be in [0, 32] (0: automatic)");
   }
   return integration.Check(why);
 }
 
 nlohmann::ordered_json GridOptions::ToJson() const {
-  nlohmann::ordered_json j = {{"map", map.string()},
-                              {"sequence", sequence.string()},
-                              {"associations", associations.string()},
-                              {"out", out.string()},
-                              {"image", ImagePath().string()},
-                              {"min_height", min_height},
-                              {"max_height", max_height},
-                              {"pixels_per_cell", pixels_per_cell}};
+  nlohmann::ordered_json j;
+  input.AddToJson(&j);
+  j["out"] = out.string();
+  j["image"] = ImagePath().string();
+  j["min_height"] = min_height;
+  j["max_height"] = max_height;
+  j["pixels_per_cell"] = pixels_per_cell;
   j["integration"] = integration.ToJson();
   return j;
 }
 
 void BindGridOptions(CLI::App* command, GridOptions* o) {
-  command->add_option("--map", o->map, "Map file (rrslam.map)")->required();
-  command
-      ->add_option("--sequence", o->sequence,
-                   "RGB-D sequence folder the map was built from (keyframe depth by timestamp)")
-      ->required();
-  command->add_option("--associations", o->associations,
-                      "Associations file of the sequence (as rrslam-track)");
+  BindMapDepthInput(command, &o->input);
   command
       ->add_option("--out", o->out,
                    "map_server YAML to write (map.yaml); the PGM beside it (map.pgm)")
@@ -281,15 +270,13 @@ GridResult RunGrid(const GridOptions& options) {
   if (!options.Check(&why)) throw UsageError(why);
   // The folders checked before the integration; each file committed at the end.
   AtomicOutput pgm_out(options.PgmPath()), yaml_out(options.out);
-  MapOctree octree = IntegrateMap(options.map, options.sequence, options.associations, "floor",
-                                  options.integration);
+  MapOctree octree = IntegrateMap(options.input, "floor", options.integration);
   if (!octree.map.floor()) {
-    throw AlgorithmError(options.map.string() +
+    throw AlgorithmError(options.input.map.string() +
                          ": no floor found, so no heights above it (rrslam-mapstore align-floor "
                          "--sequence searches the keyframes' depth too)");
   }
-  const OccupancyGrid grid =
-      ProjectOctree(*octree.tree, options.min_height, options.max_height);
+  const OccupancyGrid grid = ProjectOctree(*octree.tree, options.min_height, options.max_height);
   GridResult result;
   result.integration = octree.stats;
   result.width = grid.width;
@@ -311,14 +298,14 @@ GridResult RunGrid(const GridOptions& options) {
   const std::string producer = Producer("render");
   const std::vector<std::string> comments = {
       fmt::format("{}: grid of {}, cells {}-{} m above the floor", producer,
-                  options.map.string(), options.min_height, options.max_height),
+                  options.input.map.string(), options.min_height, options.max_height),
       octree.map.comment, "options " + DumpJson(options.ToJson())};
   ImageMetadata metadata;
   metadata.software = producer;
   metadata.description = fmt::format(
       "Occupancy grid of {} ({}-{} m above the floor, {} m cells; free white, occupied black, "
       "unknown grey; keyframe trajectory blue from the green start; 1 m lines)",
-      options.map.string(), options.min_height, options.max_height, grid.resolution);
+      options.input.map.string(), options.min_height, options.max_height, grid.resolution);
   metadata.attributes = {{"rrslam:options", DumpJson(options.ToJson())}};
   const int pixels_per_cell = AutoPixelsPerCell(grid, options.pixels_per_cell);
   WritePicture(options.ImagePath(), GridPicture(grid, trajectory, pixels_per_cell), metadata);

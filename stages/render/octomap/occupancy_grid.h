@@ -37,10 +37,10 @@ inline constexpr int8_t kCellFree = 0;
 inline constexpr int8_t kCellOccupied = 100;
 
 struct OccupancyGrid {
-  int width = 0, height = 0;                          // Cells.
-  double resolution = 0;                              // Metres per cell.
-  Eigen::Vector2d origin = Eigen::Vector2d::Zero();   // Corner of cell (0, 0), metres.
-  std::vector<int8_t> cells;                          // Row-major from y = origin.y up.
+  int width = 0, height = 0;                         // Cells.
+  double resolution = 0;                             // Metres per cell.
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();  // Corner of cell (0, 0), metres.
+  std::vector<int8_t> cells;                         // Row-major from y = origin.y up.
 
   int8_t at(int x, int y) const { return cells[static_cast<size_t>(y) * width + x]; }
   // The cell holding a point (floor frame x, y), or false outside the grid.
@@ -69,11 +69,9 @@ cv::Mat GridPicture(const OccupancyGrid& grid, const std::vector<Eigen::Vector2d
                     int pixels_per_cell);
 
 struct GridOptions {
-  std::filesystem::path map;           // --map. Required.
-  std::filesystem::path sequence;      // --sequence: the sequence the map was built from. Required.
-  std::filesystem::path associations;  // --associations, as rrslam-track's.
-  std::filesystem::path out;           // --out: the YAML (map.yaml); the PGM beside it, same stem.
-  std::filesystem::path image;         // --image: the PNG picture; empty: OUT with .png.
+  MapDepthInput input;
+  std::filesystem::path out;    // --out: the YAML (map.yaml); the PGM beside it, same stem.
+  std::filesystem::path image;  // --image: the PNG picture; empty: OUT with .png.
   double min_height = 0.1;  // --min-height: band's bottom above the floor, metres (floor noise).
   double max_height = 1.5;  // --max-height: band's top, metres (what a robot can hit).
   int pixels_per_cell = 0;  // --pixels-per-cell of the picture, in [0, 32]; 0: ~800 px a side.

@@ -1,8 +1,8 @@
 #include "stages/render/octomap/occupancy_grid.h"
 
 #include <gtest/gtest.h>
-
 #include <octomap/OcTree.h>
+
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
@@ -20,8 +20,9 @@ class BoxRoomGrid : public ::testing::Test {
     std::vector<Rigid3d> poses;
     for (int k = 0; k < 12; ++k) poses.push_back(room.CameraPose(k, 12));
     IntegrationStats stats;
-    tree_ = IntegrateDepth(DepthIntegrationOptions{}, room.camera, poses,
-                           [&](size_t i) { return room.Depth(poses[i]); }, &stats)
+    tree_ = IntegrateDepth(
+                DepthIntegrationOptions{}, room.camera, poses,
+                [&](size_t i) { return room.Depth(poses[i]); }, &stats)
                 .release();
     grid_ = new OccupancyGrid(ProjectOctree(*tree_, 0.1, 1.5));
   }
@@ -63,8 +64,8 @@ TEST_F(BoxRoomGrid, WallsAndTableAreOccupied) {
   for (double t = -1.2; t <= 1.2; t += 0.1) {
     for (const Eigen::Vector2d& p : {Eigen::Vector2d(-2 + e, t), Eigen::Vector2d(2 - e, t)}) {
       ++total;
-      if (At(p.x(), p.y()) == kCellOccupied || At(p.x() + (p.x() < 0 ? -0.05 : 0.05), p.y()) ==
-                                                  kCellOccupied) {
+      if (At(p.x(), p.y()) == kCellOccupied ||
+          At(p.x() + (p.x() < 0 ? -0.05 : 0.05), p.y()) == kCellOccupied) {
         ++occupied;
       }
     }
@@ -136,7 +137,8 @@ TEST_F(BoxRoomGrid, PictureDrawsTheTrajectoryOverTheGrid) {
   EXPECT_GT(picture.rows, grid_->height * 4);  // The legend below.
   // The trajectory's middle, (0, 0), is blue.
   const int px = static_cast<int>((0 - grid_->origin.x()) / grid_->resolution * 4);
-  const int py = static_cast<int>((grid_->height - (0 - grid_->origin.y()) / grid_->resolution) * 4);
+  const int py =
+      static_cast<int>((grid_->height - (0 - grid_->origin.y()) / grid_->resolution) * 4);
   const cv::Vec3b bgr = picture.at<cv::Vec3b>(py, px);
   EXPECT_GT(bgr[0], 150);
   EXPECT_LT(bgr[2], 100);
@@ -146,8 +148,8 @@ TEST(GridOptions, Checks) {
   GridOptions o;
   std::string why;
   EXPECT_FALSE(o.Check(&why));
-  o.map = "m.rrm";
-  o.sequence = "seq";
+  o.input.map = "m.rrm";
+  o.input.sequence = "seq";
   o.out = "map.yaml";
   EXPECT_TRUE(o.Check(&why)) << why;
   EXPECT_EQ(o.PgmPath(), "map.pgm");

@@ -1,13 +1,13 @@
 #include "stages/render/octomap/occupancy_map.h"
 
 #include <fmt/format.h>
+#include <octomap/OcTree.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
 #include <cmath>
-#include <sstream>
 #include <iostream>
-#include <octomap/OcTree.h>
+#include <sstream>
 #include <utility>
 
 #include "common/atomic_file.h"
@@ -140,18 +140,39 @@ std::unique_ptr<octomap::OcTree> IntegrateDepth(const DepthIntegrationOptions& o
   return tree;
 }
 
-MapOctree IntegrateMap(const std::filesystem::path& map, const std::filesystem::path& sequence,
-                       const std::filesystem::path& associations, const std::string& frame,
+bool MapDepthInput::Check(const std::vector<NamedPath>& outputs, std::string* why) const {
+  if (map.empty() || sequence.empty()) return Fail(why, "--map and --sequence are required");
+  return CheckOutputs(
+      outputs, {{"--map", map}, {"--sequence", sequence}, {"--associations", associations}}, why);
+}
+
+void MapDepthInput::AddToJson(nlohmann::ordered_json* json) const {
+  (*json)["map"] = map.string();
+  (*json)["sequence"] = sequence.string();
+  (*json)["associations"] = associations.string();
+}
+
+void BindMapDepthInput(CLI::App* command, MapDepthInput* input) {
+  command->add_option("--map", input->map, "Map file (rrslam.map)")->required();
+  command
+      ->add_option("--sequence", input->sequence,
+                   "RGB-D sequence folder the map was built from (keyframe depth by timestamp)")
+      ->required();
+  command->add_option("--associations", input->associations,
+                      "Associations file of the sequence (as rrslam-track)");
+}
+
+MapOctree IntegrateMap(const MapDepthInput& input, const std::string& frame,
                        const DepthIntegrationOptions& options) {
   MapOctree result;
-  result.map = LoadMapInFrame(map, frame, sequence, associations);
+  result.map = LoadMapInFrame(input.map, frame, input.sequence, input.associations);
   const MapScene& scene = result.map.scene;
   CheckFusableMap(scene);
-  const KeyFrameImages images(scene, sequence, associations);
+  const KeyFrameImages images(scene, input.sequence, input.associations);
   std::vector<Rigid3d> poses;
   for (const SceneKeyFrame& keyframe : scene.keyframes) poses.push_back(keyframe.T_world_cam);
   spdlog::info("render: integrating the depth of {} keyframes of {} at {} m{}", poses.size(),
-               map.string(), options.resolution, images.undistorts() ? " (undistorted)" : "");
+               input.map.string(), options.resolution, images.undistorts() ? " (undistorted)" : "");
   result.tree = IntegrateDepth(
       options, images.camera(), poses,
       [&images](size_t index) { return images.Load(index, /*with_color=*/false).depth; },
@@ -172,38 +193,24 @@ void WriteOctree(const octomap::OcTree& tree, const std::vector<std::string>& co
 }
 
 bool OctomapOptions::Check(std::string* why) const {
-  if (map.empty() || sequence.empty() || out.empty()) {
-    return Fail(why, "--map, --sequence and --out are required");
-  }
+  if (out.empty()) return Fail(why, "--out is required");
   if (AsciiLowercase(out.extension().string()) != ".bt") {
     return Fail(why, "--out " + out.string() + " must be a .bt file (OctoMap's binary format)");
   }
-  if (!CheckOutputNotInput(
-          {"--out", out},
-          {{"--map", map}, {"--sequence", sequence}, {"--associations", associations}}, why)) {
-    return false;
-  }
-  return CheckFrameName(frame, why) && integration.Check(why);
+  return input.Check({{"--out", out}}, why) && CheckFrameName(frame, why) && integration.Check(why);
 }
 
 nlohmann::ordered_json OctomapOptions::ToJson() const {
-  nlohmann::ordered_json j = {{"map", map.string()},
-                              {"sequence", sequence.string()},
-                              {"associations", associations.string()},
-                              {"out", out.string()},
-                              {"frame", frame}};
+  nlohmann::ordered_json j;
+  input.AddToJson(&j);
+  j["out"] = out.string();
+  j["frame"] = frame;
   j["integration"] = integration.ToJson();
   return j;
 }
 
 void BindOctomapOptions(CLI::App* command, OctomapOptions* o) {
-  command->add_option("--map", o->map, "Map file (rrslam.map)")->required();
-  command
-      ->add_option("--sequence", o->sequence,
-                   "RGB-D sequence folder the map was built from (keyframe depth by timestamp)")
-      ->required();
-  command->add_option("--associations", o->associations,
-                      "Associations file of the sequence (as rrslam-track)");
+  BindMapDepthInput(command, &o->input);
   command->add_option("--out", o->out, "OctoMap file to write (.bt)")->required();
   AddFrameOption(command, &o->frame);
   BindDepthIntegrationOptions(command, &o->integration);
@@ -213,12 +220,12 @@ IntegrationStats RunOctomap(const OctomapOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   AtomicOutput output(options.out);  // Its folder checked before the integration.
-  MapOctree octree = IntegrateMap(options.map, options.sequence, options.associations,
-                                  options.frame, options.integration);
-  WriteOctree(*octree.tree,
-              {"producer " + Producer("render"), "rrslam-render octomap of " + options.map.string(),
-               octree.map.comment, "options " + DumpJson(options.ToJson())},
-              &output);
+  MapOctree octree = IntegrateMap(options.input, options.frame, options.integration);
+  WriteOctree(
+      *octree.tree,
+      {"producer " + Producer("render"), "rrslam-render octomap of " + options.input.map.string(),
+       octree.map.comment, "options " + DumpJson(options.ToJson())},
+      &output);
   const IntegrationStats& s = octree.stats;
   std::cout << fmt::format(
       "octomap: {} keyframes, {} rays; tree of {} nodes ({} leaves, {} occupied) at {} m, "

@@ -28,6 +28,7 @@
 
 #include "common/atomic_file.h"
 #include "common/geometry.h"
+#include "common/output_path.h"
 #include "stages/render/export_frame.h"
 #include "stages/render/keyframe_images.h"
 
@@ -65,12 +66,12 @@ void BindDepthIntegrationOptions(CLI::App* command, DepthIntegrationOptions* opt
 // What an integration did.
 struct IntegrationStats {
   size_t keyframes = 0;
-  size_t rays = 0;              // Depth pixels cast (within and beyond max_range).
-  size_t nodes = 0;             // Of the pruned tree (OcTree::size(), what a .bt holds).
-  size_t leaves = 0;            // Leaf nodes.
-  size_t occupied_leaves = 0;   // Of them, occupied (probability > 0.5).
-  size_t memory_bytes = 0;      // OcTree::memoryUsage().
-  double integrate_seconds = 0; // Reading images and inserting the rays.
+  size_t rays = 0;               // Depth pixels cast (within and beyond max_range).
+  size_t nodes = 0;              // Of the pruned tree (OcTree::size(), what a .bt holds).
+  size_t leaves = 0;             // Leaf nodes.
+  size_t occupied_leaves = 0;    // Of them, occupied (probability > 0.5).
+  size_t memory_bytes = 0;       // OcTree::memoryUsage().
+  double integrate_seconds = 0;  // Reading images and inserting the rays.
   Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();  // Known space.
 
   nlohmann::ordered_json ToJson() const;
@@ -88,7 +89,21 @@ std::unique_ptr<octomap::OcTree> IntegrateDepth(const DepthIntegrationOptions& o
                                                 const std::vector<Rigid3d>& T_frame_cams,
                                                 const DepthLoader& load, IntegrationStats* stats);
 
-// A map's keyframes integrated (the inputs of `octomap` and `grid`).
+// What `octomap` and `grid` read: a map and the RGB-D sequence it was built
+// from (its keyframes' depth, found by timestamp).
+struct MapDepthInput {
+  std::filesystem::path map;           // --map. Required.
+  std::filesystem::path sequence;      // --sequence. Required.
+  std::filesystem::path associations;  // --associations, as rrslam-track's.
+
+  // False, with `why`, when map or sequence is missing or an output breaks
+  // the outputs rule against them (CheckOutputs, output_path.h).
+  bool Check(const std::vector<NamedPath>& outputs, std::string* why) const;
+  void AddToJson(nlohmann::ordered_json* json) const;
+};
+void BindMapDepthInput(CLI::App* command, MapDepthInput* input);
+
+// A map's keyframes integrated.
 struct MapOctree {
   FramedMap map;  // The map in the export frame.
   std::unique_ptr<octomap::OcTree> tree;
@@ -97,8 +112,7 @@ struct MapOctree {
 // Reads the map (moved into `frame`), finds its keyframes' images in the
 // sequence (KeyFrameImages) and integrates their depth. Throws NoInputError,
 // DataError (keyframe_images.h), UsageError for a frame name.
-MapOctree IntegrateMap(const std::filesystem::path& map, const std::filesystem::path& sequence,
-                       const std::filesystem::path& associations, const std::string& frame,
+MapOctree IntegrateMap(const MapDepthInput& input, const std::string& frame,
                        const DepthIntegrationOptions& options);
 
 // Writes the tree in OctoMap's binary format (.bt; the tree is already
@@ -109,11 +123,9 @@ void WriteOctree(const octomap::OcTree& tree, const std::vector<std::string>& co
                  AtomicOutput* output);
 
 struct OctomapOptions {
-  std::filesystem::path map;           // --map. Required.
-  std::filesystem::path sequence;      // --sequence: the sequence the map was built from. Required.
-  std::filesystem::path associations;  // --associations, as rrslam-track's.
-  std::filesystem::path out;           // --out: the .bt file. Required.
-  std::string frame = "floor";         // --frame: floor (default: what robots use) or camera.
+  MapDepthInput input;
+  std::filesystem::path out;    // --out: the .bt file. Required.
+  std::string frame = "floor";  // --frame: floor (default: what robots use) or camera.
   DepthIntegrationOptions integration;
 
   bool Check(std::string* why) const;

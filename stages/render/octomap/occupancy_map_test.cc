@@ -1,9 +1,9 @@
 #include "stages/render/octomap/occupancy_map.h"
 
 #include <gtest/gtest.h>
+#include <octomap/OcTree.h>
 
 #include <CLI/CLI.hpp>
-#include <octomap/OcTree.h>
 
 #include "common/atomic_file.h"
 #include "common/errors.h"
@@ -18,8 +18,8 @@ std::unique_ptr<octomap::OcTree> RoomTree(const DepthIntegrationOptions& options
   const testing::BoxRoom room;
   std::vector<Rigid3d> poses;
   for (int k = 0; k < views; ++k) poses.push_back(room.CameraPose(k, views));
-  return IntegrateDepth(options, room.camera, poses,
-                        [&](size_t i) { return room.Depth(poses[i]); }, stats);
+  return IntegrateDepth(
+      options, room.camera, poses, [&](size_t i) { return room.Depth(poses[i]); }, stats);
 }
 
 bool Occupied(const octomap::OcTree& tree, double x, double y, double z) {
@@ -66,11 +66,13 @@ TEST(IntegrateDepth, RefusesImagesOfAnotherSizeAndNoDepth) {
   const testing::BoxRoom room;
   IntegrationStats stats;
   const std::vector<Rigid3d> poses = {room.CameraPose(0, 1)};
-  EXPECT_THROW(IntegrateDepth(DepthIntegrationOptions{}, room.camera, poses,
-                              [](size_t) { return cv::Mat(10, 10, CV_32FC1, 1.0f); }, &stats),
+  EXPECT_THROW(IntegrateDepth(
+                   DepthIntegrationOptions{}, room.camera, poses,
+                   [](size_t) { return cv::Mat(10, 10, CV_32FC1, 1.0f); }, &stats),
                DataError);
-  EXPECT_THROW(IntegrateDepth(DepthIntegrationOptions{}, room.camera, poses,
-                              [](size_t) { return cv::Mat(120, 160, CV_32FC1, 0.0f); }, &stats),
+  EXPECT_THROW(IntegrateDepth(
+                   DepthIntegrationOptions{}, room.camera, poses,
+                   [](size_t) { return cv::Mat(120, 160, CV_32FC1, 0.0f); }, &stats),
                DataError);
 }
 
@@ -109,8 +111,8 @@ TEST(OctomapOptions, Checks) {
   OctomapOptions o;
   std::string why;
   EXPECT_FALSE(o.Check(&why));
-  o.map = "m.rrm";
-  o.sequence = "seq";
+  o.input.map = "m.rrm";
+  o.input.sequence = "seq";
   o.out = "room.bt";
   EXPECT_TRUE(o.Check(&why)) << why;
   EXPECT_EQ(o.frame, "floor");
@@ -134,7 +136,7 @@ TEST(OctomapOptions, Checks) {
   bad.integration.resolution = 2;
   EXPECT_FALSE(bad.Check(&why));
   bad = o;
-  bad.map = "m.bt";
+  bad.input.map = "m.bt";
   bad.out = "m.bt";
   EXPECT_FALSE(bad.Check(&why));
 }
