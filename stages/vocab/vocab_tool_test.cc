@@ -196,7 +196,7 @@ TEST_F(VocabCommandsTest, BuildConvertInfoQuery) {
   EXPECT_EQ(nlohmann::json::parse(from_yaml.view().metadata)["source_format"], "dbow2-yaml");
 
   const std::string info = RunVocabInfo({dir_ / "v.rrv", false});
-  for (const char* line : {"format: rrslam.vocabulary 1.0 (binary)", "k: 6", "levels: 3",
+  for (const char* line : {"format: rrslam.vocabulary 1.1 (binary)", "k: 6", "levels: 3",
                            "weighting: tf-idf", "scoring: l1", "checksum: ok", "structure: ok"}) {
     EXPECT_NE(info.find(line), std::string::npos) << line << "\n" << info;
   }

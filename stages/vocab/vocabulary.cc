@@ -36,10 +36,11 @@ int ParseThreads() {
 }
 
 VocabularyView LoadBinary(std::span<const uint8_t> bytes, const std::string& name,
-                          uint64_t* checksum) {
+                          uint64_t* checksum, uint64_t* content_hash) {
   BinaryVocabularyHeader header;
   const VocabularyView view = ParseBinaryVocabulary(bytes, name, &header);
   *checksum = header.payload_checksum;
+  *content_hash = TreeHashOf(view, header);
   return view;
 }
 
@@ -86,14 +87,14 @@ Vocabulary Vocabulary::Load(const std::filesystem::path& path) {
   v.impl_->name = path.filename().string();
   Impl& impl = *v.impl_;
   if (HasMagic(file.bytes(), kVocabularyFormat)) {
-    impl.view = LoadBinary(file.bytes(), path.string(), &impl.checksum);
+    impl.view = LoadBinary(file.bytes(), path.string(), &impl.checksum, &impl.content_hash);
     impl.binary = true;
     impl.mapped.emplace(std::move(file));
   } else {
     impl.data = LoadText(file.bytes(), path.string(), &impl.checksum);
     impl.view = impl.data.view();
+    impl.content_hash = VocabularyContentHash(impl.view);
   }
-  impl.content_hash = VocabularyContentHash(impl.view);
   return v;
 }
 
@@ -107,13 +108,13 @@ Vocabulary Vocabulary::FromBytes(std::span<const uint8_t> bytes, const std::stri
     storage.resize((bytes.size() + sizeof(OrbDescriptor) - 1) / sizeof(OrbDescriptor));
     std::memcpy(static_cast<void*>(storage.data()), bytes.data(), bytes.size());
     impl.view = LoadBinary({reinterpret_cast<const uint8_t*>(storage.data()), bytes.size()}, name,
-                           &impl.checksum);
+                           &impl.checksum, &impl.content_hash);
     impl.binary = true;
   } else {
     impl.data = LoadText(bytes, name, &impl.checksum);
     impl.view = impl.data.view();
+    impl.content_hash = VocabularyContentHash(impl.view);
   }
-  impl.content_hash = VocabularyContentHash(impl.view);
   return v;
 }
 

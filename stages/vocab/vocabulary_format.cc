@@ -466,6 +466,7 @@ std::vector<uint8_t> EncodeBinaryVocabulary(const VocabularyView& v) {
   StoreLittleEndian<uint64_t>(fields + 48, weights_offset);
   StoreLittleEndian<uint64_t>(fields + 56, metadata_offset);
   StoreLittleEndian<uint64_t>(fields + 64, v.metadata.size());
+  StoreLittleEndian<uint64_t>(fields + 72, VocabularyContentHash(v));
   const std::vector<uint8_t> header =
       BuildBinaryHeader(kVocabularyFormat, fields, std::span<const uint8_t>(payload, payload_size));
   if (header.size() != kVocabularyHeaderSize) {
@@ -509,6 +510,7 @@ BinaryVocabularyHeader ParseHeaderImpl(std::span<const uint8_t> file, const std:
   h.weights_offset = LoadLittleEndian<uint64_t>(f + 48);
   h.metadata_offset = LoadLittleEndian<uint64_t>(f + 56);
   h.metadata_size = LoadLittleEndian<uint64_t>(f + 64);
+  if (base.minor >= 1) h.tree_hash = LoadLittleEndian<uint64_t>(f + 72);
   auto fail = [&](const std::string& what) {
     throw DataError(source + ": corrupt header: " + what);
   };
@@ -543,6 +545,10 @@ BinaryVocabularyHeader ParseHeaderImpl(std::span<const uint8_t> file, const std:
 }
 
 }  // namespace
+
+uint64_t TreeHashOf(const VocabularyView& v, const BinaryVocabularyHeader& header) {
+  return header.tree_hash != 0 ? header.tree_hash : VocabularyContentHash(v);
+}
 
 BinaryVocabularyHeader ParseBinaryVocabularyHeader(std::span<const uint8_t> file,
                                                    const std::string& source) {

@@ -163,8 +163,12 @@ uint32_t DescendToLeaf(const VocabularyView& v, const OrbDescriptor& d);
 //    48 uint32 weighting           88 uint64 weights_offset
 //    52 uint32 scoring             96 uint64 metadata_offset
 //    56 uint64 num_nodes          104 uint64 metadata_size
-//    64 uint64 num_words          112 uint8[16] reserved (0)
+//    64 uint64 num_words          112 uint64 tree_hash (1.1; 0 in 1.0)
+//                                 120 uint8[8] reserved (0)
 // Offsets are relative to the payload, which starts at header_size = 128.
+// tree_hash is VocabularyContentHash, stored by the writer (a 1.0 file's is
+// computed at load): the identity costs no pass over the weights, and the
+// header checksum covers it.
 // Payload: descriptors (N x 32 bytes), links (N x uint32), weights (N x
 // float32), metadata (JSON, UTF-8).
 inline constexpr uint32_t kVocabularyHeaderSize = 128;
@@ -177,7 +181,12 @@ struct BinaryVocabularyHeader {
   uint64_t payload_checksum = 0;
   uint64_t descriptors_offset = 0, links_offset = 0, weights_offset = 0;
   uint64_t metadata_offset = 0, metadata_size = 0;
+  uint64_t tree_hash = 0;  // Stored VocabularyContentHash (1.1); 0: none (1.0).
 };
+
+// The tree's identity of a binary file: the stored hash, else (1.0 files)
+// VocabularyContentHash(v).
+uint64_t TreeHashOf(const VocabularyView& v, const BinaryVocabularyHeader& header);
 
 // The whole binary file for `v`.
 std::vector<uint8_t> EncodeBinaryVocabulary(const VocabularyView& v);

@@ -213,7 +213,7 @@ void ExpectBinaryError(const std::vector<uint8_t>& bytes, const std::string& fra
 // Re-seals a modified file: recomputes the payload and header checksums, so
 // that only the check under test can reject it.
 std::vector<uint8_t> Reseal(const std::vector<uint8_t>& bytes, uint16_t major = 1,
-                            uint16_t minor = 0) {
+                            uint16_t minor = kVocabularyFormat.minor) {
   FormatSpec spec = kVocabularyFormat;
   spec.major = major;
   spec.minor = minor;
@@ -250,7 +250,9 @@ TEST_F(BinaryVocabularyTest, RoundTrip) {
   BinaryVocabularyHeader h;
   const VocabularyView v = ParseBinaryVocabulary(file.span(), "v.rrv", &h);
   EXPECT_EQ(h.major, 1);
-  EXPECT_EQ(h.minor, 0);
+  EXPECT_EQ(h.minor, 1);
+  EXPECT_EQ(h.tree_hash, VocabularyContentHash(v));
+  EXPECT_NE(h.tree_hash, 0u);
   EXPECT_EQ(v.info.k, 4);
   EXPECT_EQ(v.info.levels, 3);
   EXPECT_EQ(v.info.num_nodes, n());
@@ -295,6 +297,24 @@ TEST_F(BinaryVocabularyTest, RejectsFutureMajorAcceptsNewerMinor) {
   BinaryVocabularyHeader h;
   EXPECT_NO_THROW(ParseBinaryVocabulary(file.span(), "v.rrv", &h));
   EXPECT_EQ(h.minor, 7);
+}
+
+// A 1.0 file has no stored tree hash (its bytes 112-119 were reserved): the
+// identity is computed from the arrays, and it is the one 1.1 stores.
+TEST_F(BinaryVocabularyTest, VersionOneZeroFilesGetTheTreeHashComputed) {
+  std::vector<uint8_t> old = bytes_;
+  Put<uint64_t>(&old, 112, 0);
+  old = Reseal(old, 1, 0);
+  const AlignedFile file(old);
+  BinaryVocabularyHeader h;
+  const VocabularyView v = ParseBinaryVocabulary(file.span(), "v.rrv", &h);
+  EXPECT_EQ(h.minor, 0);
+  EXPECT_EQ(h.tree_hash, 0u);
+  EXPECT_EQ(TreeHashOf(v, h), VocabularyContentHash(data_.view()));
+  // A stored hash is covered by the header checksum: changed, it is refused.
+  std::vector<uint8_t> tampered = bytes_;
+  Put<uint64_t>(&tampered, 112, 12345);
+  ExpectBinaryError(tampered, "header checksum mismatch");
 }
 
 TEST_F(BinaryVocabularyTest, RejectsBadChecksums) {
