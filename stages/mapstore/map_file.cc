@@ -12,6 +12,7 @@
 #include "common/binary_header.h"
 #include "common/errors.h"
 #include "common/formats.h"
+#include "common/heap_reserve.h"
 #include "common/path_check.h"
 
 namespace rrslam {
@@ -704,6 +705,14 @@ MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
   }
   const MappedFile file(path, /*populate=*/true);
   return ParseMap(file.bytes(), path.string(), info);
+}
+
+MapData ReadMapFileReservingHeap(const std::filesystem::path& path, double heap_factor,
+                                 MapFileInfo* info) {
+  std::error_code size_error;
+  const uintmax_t file_bytes = std::filesystem::file_size(path, size_error);
+  if (!size_error) ReserveHeap(static_cast<size_t>(heap_factor * static_cast<double>(file_bytes)));
+  return ReadMapFile(path, info);
 }
 
 // ---------------------------------------------------------------------------

@@ -53,6 +53,13 @@ MapData ParseMap(std::span<const uint8_t> file, const std::string& source,
 // folder, DataError as ParseMap.
 MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info = nullptr);
 
+// ReadMapFile with the calling thread's heap prepared for what follows
+// (ReserveHeap, common/heap_reserve.h, for `heap_factor` times the file's
+// size: the records alone take about 2x): on a virtual machine the fresh
+// pages' faults are most of a big map's load (docs/mapstore.md).
+MapData ReadMapFileReservingHeap(const std::filesystem::path& path, double heap_factor,
+                                 MapFileInfo* info = nullptr);
+
 // The header and section table only (checks the header, not the sections),
 // for `rrslam-mapstore info` on a file whose sections may be corrupt.
 MapFileInfo ReadMapFileInfo(std::span<const uint8_t> file, const std::string& source);

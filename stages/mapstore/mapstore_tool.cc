@@ -256,7 +256,7 @@ std::string RunMapInfo(const MapInfoOptions& options) {
 std::string RunMapVerify(const MapVerifyOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
-  const MapData map = ReadMapFile(options.map);
+  const MapData map = ReadMapFileReservingHeap(options.map, 2);
   const std::string text = options.map.string() + ": ok (" + std::to_string(map.keyframes.size()) +
                            " keyframes, " + std::to_string(map.map_points.size()) +
                            " map points)\n";
@@ -270,8 +270,8 @@ std::string RunMapVerify(const MapVerifyOptions& options) {
 std::string RunMapDiff(const MapDiffOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
-  const MapData a = ReadMapFile(options.a);
-  const MapData b = ReadMapFile(options.b);
+  const MapData a = ReadMapFileReservingHeap(options.a, 2);
+  const MapData b = ReadMapFileReservingHeap(options.b, 2);
   const MapDiff d = DiffMaps(a, b, options.radius);
   char line[256];
   std::string text = "diff " + options.a.string() + " -> " + options.b.string() + " (radius " +
@@ -322,7 +322,7 @@ std::string RunMapAlignFloor(const MapAlignFloorOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   const std::string name = options.map.string();
-  MapData map = ReadMapFile(options.map);
+  MapData map = ReadMapFileReservingHeap(options.map, 2);
   std::optional<RgbdSequence> sequence;
   if (!options.sequence.empty()) sequence = RgbdSequence::Open(options.sequence);
   const std::vector<Eigen::Vector3d> points =

@@ -21,7 +21,6 @@
 #include "common/clock.h"
 #include "common/dataset.h"
 #include "common/errors.h"
-#include "common/heap_reserve.h"
 #include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/progress.h"
@@ -497,11 +496,8 @@ class TrackSession {
     const std::string source = options_.load_map.string();
     // The load's allocations (the file's records, then the live map: about
     // four times the file's size) on this thread, in huge-page memory.
-    std::error_code size_error;
-    const uintmax_t file_bytes = std::filesystem::file_size(options_.load_map, size_error);
-    if (!size_error) ReserveHeap(4 * static_cast<size_t>(file_bytes));
     MapFileInfo info;
-    MapData data = ReadMapFile(options_.load_map, &info);
+    MapData data = ReadMapFileReservingHeap(options_.load_map, 4, &info);
     CheckMapCompatible(data, camera_, vocabulary_, source);
     TrackStartup& startup = summary_.startup;
     startup.map_read_ms = MillisecondsSince(map_start);
