@@ -1,7 +1,6 @@
 #include "stages/render/map_scene.h"
 
 #include <fmt/format.h>
-#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
@@ -10,9 +9,7 @@
 #include "common/dataset.h"
 #include "common/errors.h"
 #include "stages/eval/ate.h"
-#include "stages/mapstore/floor.h"
 #include "stages/mapstore/map_file.h"
-#include "stages/render/ply.h"
 
 namespace rrslam {
 namespace {
