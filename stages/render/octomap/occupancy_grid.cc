@@ -13,6 +13,7 @@
 #include "common/atomic_file.h"
 #include "common/cli.h"
 #include "common/errors.h"
+#include "common/image_io.h"
 #include "common/json_text.h"
 #include "common/output_path.h"
 #include "common/text.h"
@@ -45,10 +46,12 @@ cv::Scalar PictureColour(int8_t cell) {
   return {160, 160, 160};
 }
 
-int AutoPixelsPerCell(const OccupancyGrid& grid, int requested) {
-  if (requested > 0) return requested;
+// The picture's pixels per cell: `requested`, or (0) about kAutoPictureSide
+// pixels on the larger side; never a side beyond kMaxImageSide.
+int PixelsPerCell(const OccupancyGrid& grid, int requested) {
   const int side = std::max(1, std::max(grid.width, grid.height));
-  return std::clamp(kAutoPictureSide / side, 1, 32);
+  const int wanted = requested > 0 ? requested : kAutoPictureSide / side;
+  return std::clamp(wanted, 1, std::max(1, kMaxImageSide / side));
 }
 
 // The picture with a strip below: a 1 m scale bar (`metre` pixels) and the
@@ -265,6 +268,54 @@ void BindGridOptions(CLI::App* command, GridOptions* o) {
   BindDepthIntegrationOptions(command, &o->integration);
 }
 
+namespace {
+
+// The keyframe trajectory on the floor (x, y), and how many of its cameras
+// stand over the grid and over free cells (into `result`).
+std::vector<Eigen::Vector2d> CamerasOverCells(const MapScene& scene, const OccupancyGrid& grid,
+                                              GridResult* result) {
+  std::vector<Eigen::Vector2d> trajectory;
+  for (const StampedPose& pose : scene.KeyFrameTrajectory()) {
+    const Eigen::Vector2d xy = pose.T_world_cam.translation.head<2>();
+    trajectory.push_back(xy);
+    int x = 0, y = 0;
+    if (!grid.CellOf(xy, &x, &y)) continue;
+    ++result->cameras;
+    if (grid.at(x, y) == kCellFree) ++result->cameras_over_free;
+    spdlog::debug("grid: camera at ({:.2f}, {:.2f}, {:.2f}) m over a cell {}", xy.x(), xy.y(),
+                  pose.T_world_cam.translation.z(), grid.at(x, y));
+  }
+  return trajectory;
+}
+
+// The picture (its folder checked when written), then the PGM and the YAML
+// (reserved before the integration).
+void WriteGridFiles(const GridOptions& options, const OccupancyGrid& grid,
+                    const std::vector<Eigen::Vector2d>& trajectory,
+                    const std::string& frame_comment, AtomicOutput* pgm_out,
+                    AtomicOutput* yaml_out) {
+  const std::string producer = Producer("render");
+  const std::string options_json = DumpJson(options.ToJson());
+  ImageMetadata metadata;
+  metadata.software = producer;
+  metadata.description = fmt::format(
+      "Occupancy grid of {} ({}-{} m above the floor, {} m cells; free white, occupied black, "
+      "unknown grey; keyframe trajectory blue from the green start; 1 m lines)",
+      options.input.map.string(), options.min_height, options.max_height, grid.resolution);
+  metadata.attributes = {{"rrslam:options", options_json}};
+  WritePicture(options.ImagePath(),
+               GridPicture(grid, trajectory, PixelsPerCell(grid, options.pixels_per_cell)),
+               metadata);
+  CommitContent(pgm_out, MapServerPgm(grid));
+  const std::vector<std::string> comments = {
+      fmt::format("{}: grid of {}, cells {}-{} m above the floor", producer,
+                  options.input.map.string(), options.min_height, options.max_height),
+      frame_comment, "options " + options_json};
+  CommitContent(yaml_out, MapServerYaml(grid, options.PgmPath().filename().string(), comments));
+}
+
+}  // namespace
+
 GridResult RunGrid(const GridOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
@@ -284,33 +335,8 @@ GridResult RunGrid(const GridOptions& options) {
   result.free = grid.Count(kCellFree);
   result.occupied = grid.Count(kCellOccupied);
   result.unknown = grid.Count(kCellUnknown);
-  std::vector<Eigen::Vector2d> trajectory;
-  for (const StampedPose& pose : octree.map.scene.KeyFrameTrajectory()) {
-    const Eigen::Vector2d xy = pose.T_world_cam.translation.head<2>();
-    trajectory.push_back(xy);
-    int x = 0, y = 0;
-    if (!grid.CellOf(xy, &x, &y)) continue;
-    ++result.cameras;
-    if (grid.at(x, y) == kCellFree) ++result.cameras_over_free;
-    spdlog::debug("grid: camera at ({:.2f}, {:.2f}, {:.2f}) m over a cell {}", xy.x(), xy.y(),
-                  pose.T_world_cam.translation.z(), grid.at(x, y));
-  }
-  const std::string producer = Producer("render");
-  const std::vector<std::string> comments = {
-      fmt::format("{}: grid of {}, cells {}-{} m above the floor", producer,
-                  options.input.map.string(), options.min_height, options.max_height),
-      octree.map.comment, "options " + DumpJson(options.ToJson())};
-  ImageMetadata metadata;
-  metadata.software = producer;
-  metadata.description = fmt::format(
-      "Occupancy grid of {} ({}-{} m above the floor, {} m cells; free white, occupied black, "
-      "unknown grey; keyframe trajectory blue from the green start; 1 m lines)",
-      options.input.map.string(), options.min_height, options.max_height, grid.resolution);
-  metadata.attributes = {{"rrslam:options", DumpJson(options.ToJson())}};
-  const int pixels_per_cell = AutoPixelsPerCell(grid, options.pixels_per_cell);
-  WritePicture(options.ImagePath(), GridPicture(grid, trajectory, pixels_per_cell), metadata);
-  CommitContent(&pgm_out, MapServerPgm(grid));
-  CommitContent(&yaml_out, MapServerYaml(grid, options.PgmPath().filename().string(), comments));
+  const std::vector<Eigen::Vector2d> trajectory = CamerasOverCells(octree.map.scene, grid, &result);
+  WriteGridFiles(options, grid, trajectory, octree.map.comment, &pgm_out, &yaml_out);
   std::cout << fmt::format(
       "grid: {} x {} cells of {} m: {} free, {} occupied, {} unknown; {} of {} keyframe "
       "cameras over free cells; integration {:.1f} s\nwrote {}, {} and {}\n",

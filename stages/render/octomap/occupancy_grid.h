@@ -74,7 +74,7 @@ struct GridOptions {
   std::filesystem::path image;  // --image: the PNG picture; empty: OUT with .png.
   double min_height = 0.1;  // --min-height: band's bottom above the floor, metres (floor noise).
   double max_height = 1.5;  // --max-height: band's top, metres (what a robot can hit).
-  int pixels_per_cell = 0;  // --pixels-per-cell of the picture, in [0, 32]; 0: ~800 px a side.
+  int pixels_per_cell = 0;  // --pixels-per-cell, in [0, 32]; 0: ~800 px a side (<= 16384 px).
   DepthIntegrationOptions integration;
 
   std::filesystem::path PgmPath() const;    // OUT with .pgm.
