@@ -10,7 +10,8 @@
 # The base map: BENCH_SCALE_MAP, by default bench-dense's kitchen map
 # (frames [0, 500), made as bench-dense makes it when missing), with its
 # vocabulary BENCH_SCALE_VOCAB.
-# Result: bench/results/scale-<UTC date>[-BENCH_SCALE_TAG].txt (and .json).
+# Result: bench/results/scale-<UTC date>[-BENCH_SCALE_TAG].txt (and .json),
+# and the curves against keyframes in ...-time.png and ...-memory.png.
 BENCH_SCALE_DIR ?= $(BUILD_DIR)/bench-data/scale
 BENCH_SCALE_MAP ?= $(BENCH_DENSE_MAP)
 BENCH_SCALE_VOCAB ?= $(bench_dense_pipeline)/7scenes-kitchen/voc.rrv

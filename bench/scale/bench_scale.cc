@@ -15,14 +15,18 @@
 // per keyframe no larger than ~125 kB.
 // Not yet measured here: relocalization and first pose, tracking and local
 // mapping, global BA on the large maps (issue 35's other curves).
-// Writes PREFIX.txt and PREFIX.json.
+// Writes PREFIX.txt and PREFIX.json, and the curves as PREFIX-time.png and
+// PREFIX-memory.png.
 #include <CLI/CLI.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "bench/common/bench_report.h"
+#include "common/chart.h"
 #include "common/clock.h"
+#include "common/image_io.h"
 #include "stages/mapstore/map_compose.h"
 #include "stages/mapstore/map_file.h"
 #include "stages/vocab/vocabulary.h"
@@ -42,14 +46,77 @@ struct Options {
   bool keep = false;  // Keep the composed maps in `work` (else each is removed once measured).
 };
 
+// One size's figures, for the plots.
+struct Row {
+  double keyframes = 0;
+  double save_s = 0, load_s = 0, verify_s = 0;  // Seconds.
+  double file_mb = 0, peak_mb = 0;              // 10^6 bytes.
+};
+
+struct Curve {
+  std::string label;
+  cv::Scalar colour;                    // BGR.
+  std::vector<Eigen::Vector2d> points;  // (keyframes, value).
+};
+
+// A line chart of `curves` against keyframe count (both axes from 0), with
+// the goal at 10k keyframes as a cross where one is given.
+cv::Mat PlotCurves(const std::string& title, const std::string& v_label,
+                   const std::vector<Curve>& curves) {
+  namespace chart = rrslam::chart;
+  cv::Mat image(600, 900, CV_8UC3, chart::kBackground);
+  const chart::ChartLayout layout = chart::MakeLayout(image.size());
+  Eigen::Vector2d hi(1, 1e-3);
+  for (const Curve& c : curves) {
+    for (const Eigen::Vector2d& p : c.points) hi = hi.cwiseMax(p);
+  }
+  const chart::Axes2d axes =
+      chart::FitAxes(Eigen::Vector2d::Zero(), hi, layout.area, chart::AxisScale::kEach, 1.1);
+  chart::DrawGrid(image, layout, axes);
+  std::vector<chart::LegendEntry> legend;
+  std::vector<cv::Point2d> occupied;
+  for (const Curve& c : curves) {
+    std::vector<cv::Point> line;
+    for (const Eigen::Vector2d& p : c.points) {
+      occupied.push_back(axes(p));
+      line.push_back(chart::SubPixel(axes(p)));
+      cv::circle(image, line.back(), 4 << chart::kShift, c.colour, cv::FILLED, cv::LINE_AA,
+                 chart::kShift);
+    }
+    cv::polylines(image, line, false, c.colour, layout.line_width, cv::LINE_AA, chart::kShift);
+    legend.push_back({c.label, c.colour, layout.line_width});
+  }
+  chart::DrawFrameAndLabels(image, layout, "keyframes", v_label, title);
+  chart::DrawLegend(image, layout, legend, occupied);
+  return image;
+}
+
+// bench/results/PREFIX-{time,memory}.png: the curves of every size.
+void WritePlots(const std::string& out, const std::vector<Row>& rows) {
+  Curve save{"save (s)", {40, 40, 200}, {}}, load{"load in process (s)", {200, 120, 40}, {}},
+      verify{"verify, whole process (s)", {40, 150, 40}, {}};
+  Curve file{"file (MB)", {200, 120, 40}, {}}, peak{"load peak memory (MB)", {40, 40, 200}, {}};
+  for (const Row& r : rows) {
+    save.points.emplace_back(r.keyframes, r.save_s);
+    load.points.emplace_back(r.keyframes, r.load_s);
+    verify.points.emplace_back(r.keyframes, r.verify_s);
+    file.points.emplace_back(r.keyframes, r.file_mb);
+    peak.points.emplace_back(r.keyframes, r.peak_mb);
+  }
+  rrslam::WritePng(out + "-time.png",
+                   PlotCurves("map file times against keyframes", "seconds", {save, load, verify}));
+  rrslam::WritePng(out + "-memory.png",
+                   PlotCurves("map file and load memory against keyframes", "MB", {file, peak}));
+}
+
 double SecondsOf(const std::function<void()>& f) {
   const auto start = rrslam::SteadyClock::now();
   f();
   return rrslam::MillisecondsSince(start) / 1000.0;
 }
 
-void MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Vocabulary& vocab,
-                 int size, Report* report) {
+Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Vocabulary& vocab,
+                int size, Report* report) {
   rrslam::ComposeOptions compose;
   compose.copies = static_cast<int>((size + base.keyframes.size() - 1) / base.keyframes.size());
   const int levels_up = base.bow_levels_up;
@@ -93,6 +160,12 @@ void MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Vo
   report->Add(s, {"load peak memory / file size", ratio, "x", goal("<= 2 x"), !big || ratio <= 2});
   report->Add(s, {"load peak memory", verify.max_rss_mb, "MB", "-", true});
   if (!o.keep) fs::remove(path);
+  return {static_cast<double>(keyframes),
+          save_s,
+          Median(loads),
+          verify.wall_s,
+          bytes / 1e6,
+          verify.max_rss_mb};
 }
 
 std::vector<int> ParseSizes(const std::string& text) {
@@ -122,7 +195,9 @@ int main(int argc, char** argv) {
   const rrslam::MapData base = rrslam::ReadMapFile(o.map);
   const rrslam::Vocabulary vocab = rrslam::Vocabulary::Load(o.vocab);
   Report report;
-  for (const int size : o.sizes) MeasureSize(o, base, vocab, size, &report);
+  std::vector<Row> rows;
+  for (const int size : o.sizes) rows.push_back(MeasureSize(o, base, vocab, size, &report));
+  WritePlots(o.out, rows);
   rrslam::bench::WriteGoalResults(o.out,
                                   "Issue 35: map files at scale, composed from " + o.map.string() +
                                       " (" + std::to_string(base.keyframes.size()) + " keyframes)",
