@@ -42,10 +42,17 @@ long long Find(const std::string& text, const std::string& pattern) {
 
 void Integration(const Options& o, Report* report, std::string* nodes) {
   const std::string s = "octomap at " + rrslam::Format("%g", o.resolution) + " m";
-  const std::vector<std::string> command = {
-      o.render.string(), "--quiet",     "octomap",      "--map",
-      o.map.string(),    "--sequence",  o.sequence.string(), "--out",
-      (o.work / "map.bt").string(),     "--resolution", rrslam::Format("%g", o.resolution)};
+  const std::vector<std::string> command = {o.render.string(),
+                                            "--quiet",
+                                            "octomap",
+                                            "--map",
+                                            o.map.string(),
+                                            "--sequence",
+                                            o.sequence.string(),
+                                            "--out",
+                                            (o.work / "map.bt").string(),
+                                            "--resolution",
+                                            rrslam::Format("%g", o.resolution)};
   std::vector<double> walls, cpus, rss;
   ChildRun last;
   for (int r = 0; r < o.runs; ++r) {
@@ -84,11 +91,11 @@ void ReadByOctomapTools(const Options& o, const std::string& nodes, Report* repo
 
 void Grid(const Options& o, Report* report) {
   const std::string s = "grid 0.1-1.5 m above the floor";
-  const ChildRun run = RunChild(
-      {o.render.string(), "--quiet", "grid", "--map", o.map.string(), "--sequence",
-       o.sequence.string(), "--out", (o.work / "grid.yaml").string(), "--resolution",
-       rrslam::Format("%g", o.resolution)},
-      o.work / "grid.txt");
+  const ChildRun run =
+      RunChild({o.render.string(), "--quiet", "grid", "--map", o.map.string(), "--sequence",
+                o.sequence.string(), "--out", (o.work / "grid.yaml").string(), "--resolution",
+                rrslam::Format("%g", o.resolution)},
+               o.work / "grid.txt");
   if (run.exit_code != 0) {
     report->Add(s, {"exit code", static_cast<double>(run.exit_code), "", "0", false});
     return;
@@ -99,8 +106,8 @@ void Grid(const Options& o, Report* report) {
   report->Add(s, {"wall time", run.wall_s, "s", "-", true});
   report->Add(s, {"keyframe cameras over free cells", 100.0 * over / std::max(1LL, cameras), "%",
                   "report", true});
-  report->Add(s, {"free cells", static_cast<double>(Find(run.stdout_text, "m: ([0-9]+) free")),
-                  "", "-", true});
+  report->Add(s, {"free cells", static_cast<double>(Find(run.stdout_text, "m: ([0-9]+) free")), "",
+                  "-", true});
 }
 
 }  // namespace

@@ -332,14 +332,15 @@ std::string RunVocabInfo(const VocabInfoOptions& options) {
       j["tree"] = Hex64(TreeHashOf(v, h)) + (h.tree_hash != 0 ? " (stored)" : " (computed)");
       nlohmann::json metadata = nlohmann::json::parse(v.metadata, nullptr, false);
       if (!v.metadata.empty()) {
-        j["metadata"] = metadata.is_discarded() ? nlohmann::json(std::string(v.metadata)) : metadata;
+        j["metadata"] =
+            metadata.is_discarded() ? nlohmann::json(std::string(v.metadata)) : metadata;
       }
     } catch (const DataError& e) {
       const BinaryHeaderView base = ParseBinaryHeader(file.bytes(), kVocabularyFormat, name);
       const uint64_t actual = Checksum64(base.payload);
       if (actual != h.payload_checksum) {
-        j["checksum"] = "MISMATCH (header " + Hex64(h.payload_checksum) + ", payload " +
-                        Hex64(actual) + ")";
+        j["checksum"] =
+            "MISMATCH (header " + Hex64(h.payload_checksum) + ", payload " + Hex64(actual) + ")";
         problem = name + ": corrupt payload (checksum mismatch)";
       } else {
         j["checksum"] = "ok (xxh3 " + Hex64(actual) + ")";
