@@ -9,6 +9,7 @@
 #include <cmath>
 #include <iostream>
 #include <opencv2/imgproc.hpp>
+#include <utility>
 
 #include "common/atomic_file.h"
 #include "common/cli.h"
@@ -321,12 +322,15 @@ GridResult RunGrid(const GridOptions& options) {
   if (!options.Check(&why)) throw UsageError(why);
   // The folders checked before the integration; each file committed at the end.
   AtomicOutput pgm_out(options.PgmPath()), yaml_out(options.out);
-  MapOctree octree = IntegrateMap(options.input, "floor", options.integration);
-  if (!octree.map.floor()) {
-    throw AlgorithmError(options.input.map.string() +
+  const MapDepthInput& in = options.input;
+  FramedMap map = LoadMapInFrame(in.map, "floor", in.sequence, in.associations);
+  // Refused before the integration: heights need a floor.
+  if (!map.floor()) {
+    throw AlgorithmError(in.map.string() +
                          ": no floor found, so no heights above it (rrslam-mapstore align-floor "
                          "--sequence searches the keyframes' depth too)");
   }
+  MapOctree octree = IntegrateMap(std::move(map), in, options.integration);
   const OccupancyGrid grid = ProjectOctree(*octree.tree, options.min_height, options.max_height);
   GridResult result;
   result.integration = octree.stats;

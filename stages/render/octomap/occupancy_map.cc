@@ -162,10 +162,10 @@ void BindMapDepthInput(CLI::App* command, MapDepthInput* input) {
                       "Associations file of the sequence (as rrslam-track)");
 }
 
-MapOctree IntegrateMap(const MapDepthInput& input, const std::string& frame,
+MapOctree IntegrateMap(FramedMap map, const MapDepthInput& input,
                        const DepthIntegrationOptions& options) {
   MapOctree result;
-  result.map = LoadMapInFrame(input.map, frame, input.sequence, input.associations);
+  result.map = std::move(map);
   const MapScene& scene = result.map.scene;
   CheckFusableMap(scene);
   const KeyFrameImages images(scene, input.sequence, input.associations);
@@ -220,7 +220,9 @@ IntegrationStats RunOctomap(const OctomapOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   AtomicOutput output(options.out);  // Its folder checked before the integration.
-  MapOctree octree = IntegrateMap(options.input, options.frame, options.integration);
+  const MapDepthInput& in = options.input;
+  MapOctree octree = IntegrateMap(
+      LoadMapInFrame(in.map, options.frame, in.sequence, in.associations), in, options.integration);
   WriteOctree(
       *octree.tree,
       {"producer " + Producer("render"), "rrslam-render octomap of " + options.input.map.string(),

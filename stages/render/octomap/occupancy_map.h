@@ -109,10 +109,10 @@ struct MapOctree {
   std::unique_ptr<octomap::OcTree> tree;
   IntegrationStats stats;
 };
-// Reads the map (moved into `frame`), finds its keyframes' images in the
-// sequence (KeyFrameImages) and integrates their depth. Throws NoInputError,
-// DataError (keyframe_images.h), UsageError for a frame name.
-MapOctree IntegrateMap(const MapDepthInput& input, const std::string& frame,
+// Integrates the depth of `map`'s keyframes (the map already in its export
+// frame: LoadMapInFrame of input.map), their images found in input.sequence
+// (KeyFrameImages). Throws NoInputError, DataError (keyframe_images.h).
+MapOctree IntegrateMap(FramedMap map, const MapDepthInput& input,
                        const DepthIntegrationOptions& options);
 
 // Writes the tree in OctoMap's binary format (.bt; the tree is already
