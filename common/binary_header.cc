@@ -8,6 +8,9 @@
 
 #include <cerrno>
 #include <cstring>
+#include <new>
+#include <span>
+#include <utility>
 
 #include "common/errors.h"
 
@@ -30,16 +33,53 @@ bool HasMagic(std::span<const uint8_t> file, const FormatSpec& spec) {
   return file.size() >= 8 && std::memcmp(file.data(), spec.magic, 8) == 0;
 }
 
+struct StreamingChecksum64::State {
+  XXH3_state_t* xxh = nullptr;
+};
+
+StreamingChecksum64::StreamingChecksum64() : state_(new State) {
+  state_->xxh = XXH3_createState();
+  if (state_->xxh == nullptr) {
+    delete state_;
+    throw std::bad_alloc();
+  }
+  XXH3_64bits_reset(state_->xxh);
+}
+
+StreamingChecksum64::~StreamingChecksum64() {
+  if (state_ != nullptr) XXH3_freeState(state_->xxh);
+  delete state_;
+}
+
+StreamingChecksum64::StreamingChecksum64(StreamingChecksum64&& other) noexcept
+    : state_(std::exchange(other.state_, nullptr)) {}
+
+StreamingChecksum64& StreamingChecksum64::operator=(StreamingChecksum64&& other) noexcept {
+  std::swap(state_, other.state_);
+  return *this;
+}
+
+void StreamingChecksum64::Update(std::span<const uint8_t> bytes) {
+  if (!bytes.empty()) XXH3_64bits_update(state_->xxh, bytes.data(), bytes.size());
+}
+
+uint64_t StreamingChecksum64::Digest() const { return XXH3_64bits_digest(state_->xxh); }
+
 std::vector<uint8_t> BuildBinaryHeader(const FormatSpec& spec, std::span<const uint8_t> fields,
                                        std::span<const uint8_t> payload) {
+  return BuildBinaryHeader(spec, fields, payload.size(), Checksum64(payload));
+}
+
+std::vector<uint8_t> BuildBinaryHeader(const FormatSpec& spec, std::span<const uint8_t> fields,
+                                       uint64_t payload_size, uint64_t payload_checksum) {
   const size_t padded = (fields.size() + 7) / 8 * 8;
   std::vector<uint8_t> header(kBaseHeaderSize + padded, 0);
   std::memcpy(header.data(), spec.magic, 8);
   StoreLittleEndian<uint16_t>(header.data() + 8, spec.major);
   StoreLittleEndian<uint16_t>(header.data() + 10, spec.minor);
   StoreLittleEndian<uint32_t>(header.data() + 12, static_cast<uint32_t>(header.size()));
-  StoreLittleEndian<uint64_t>(header.data() + 16, payload.size());
-  StoreLittleEndian<uint64_t>(header.data() + 24, Checksum64(payload));
+  StoreLittleEndian<uint64_t>(header.data() + 16, payload_size);
+  StoreLittleEndian<uint64_t>(header.data() + 24, payload_checksum);
   if (!fields.empty()) std::memcpy(header.data() + kBaseHeaderSize, fields.data(), fields.size());
   StoreLittleEndian<uint64_t>(header.data() + 32, HeaderChecksum(header));
   return header;
@@ -108,6 +148,39 @@ MappedFile::MappedFile(const std::filesystem::path& path, bool populate) {
     data_ = static_cast<const uint8_t*>(p);
   }
   ::close(fd);
+}
+
+namespace {
+
+// The whole pages of `part` within [data, data + size), or an empty range.
+std::pair<uintptr_t, size_t> WholePages(const uint8_t* data, size_t size,
+                                        std::span<const uint8_t> part) {
+  const auto begin = reinterpret_cast<uintptr_t>(part.data());
+  const auto end = begin + part.size();
+  const auto lo = reinterpret_cast<uintptr_t>(data);
+  if (data == nullptr || begin < lo || end > lo + size) return {0, 0};
+  const auto page = static_cast<uintptr_t>(::sysconf(_SC_PAGESIZE));
+  const uintptr_t first = (begin + page - 1) & ~(page - 1);
+  const uintptr_t last = end & ~(page - 1);
+  return last > first ? std::pair{first, static_cast<size_t>(last - first)}
+                      : std::pair{uintptr_t{0}, size_t{0}};
+}
+
+#ifndef MADV_POPULATE_READ
+#define MADV_POPULATE_READ 22
+#endif
+
+}  // namespace
+
+void MappedFile::Release(std::span<const uint8_t> part) const {
+  const auto [first, bytes] = WholePages(data_, size_, part);
+  // A hint: a failure leaves the pages mapped, which is only more memory.
+  if (bytes > 0) ::madvise(reinterpret_cast<void*>(first), bytes, MADV_DONTNEED);
+}
+
+void MappedFile::Prefault(std::span<const uint8_t> part) const {
+  const auto [first, bytes] = WholePages(data_, size_, part);
+  if (bytes > 0) ::madvise(reinterpret_cast<void*>(first), bytes, MADV_POPULATE_READ);
 }
 
 MappedFile::~MappedFile() {

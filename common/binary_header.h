@@ -49,10 +49,34 @@ void StoreLittleEndian(uint8_t* p, T value) {
 // XXH3-64 of `bytes` (the checksum of every rrslam binary format).
 uint64_t Checksum64(std::span<const uint8_t> bytes);
 
+// XXH3-64 of bytes given in pieces: Update with each piece in order; Digest
+// equals Checksum64 of their concatenation. Move-only.
+class StreamingChecksum64 {
+ public:
+  StreamingChecksum64();
+  ~StreamingChecksum64();
+  StreamingChecksum64(StreamingChecksum64&& other) noexcept;
+  StreamingChecksum64& operator=(StreamingChecksum64&& other) noexcept;
+  StreamingChecksum64(const StreamingChecksum64&) = delete;
+  StreamingChecksum64& operator=(const StreamingChecksum64&) = delete;
+
+  void Update(std::span<const uint8_t> bytes);
+  uint64_t Digest() const;
+
+ private:
+  struct State;
+  State* state_ = nullptr;
+};
+
 // Builds the header bytes for `spec` with the format-specific `fields`
 // (padded with zeros to a multiple of 8) and the given payload.
 std::vector<uint8_t> BuildBinaryHeader(const FormatSpec& spec, std::span<const uint8_t> fields,
                                        std::span<const uint8_t> payload);
+
+// The same for a payload written elsewhere (streamed to a file): its size in
+// bytes and its Checksum64.
+std::vector<uint8_t> BuildBinaryHeader(const FormatSpec& spec, std::span<const uint8_t> fields,
+                                       uint64_t payload_size, uint64_t payload_checksum);
 
 struct BinaryHeaderView {
   uint16_t major = 0;
@@ -89,6 +113,15 @@ class MappedFile {
   MappedFile& operator=(const MappedFile&) = delete;
 
   std::span<const uint8_t> bytes() const { return {data_, size_}; }
+
+  // Memory hints for a part of bytes() (the whole pages inside it; a part
+  // outside the mapping is ignored). Release drops its pages from this
+  // process (they stay in the page cache; reading them again maps them
+  // back), so a reader that is done with a part stops counting it in its
+  // resident memory. Prefault maps a part's pages at once (MADV_POPULATE_READ,
+  // Linux >= 5.14; a no-op elsewhere) instead of one fault per page.
+  void Release(std::span<const uint8_t> part) const;
+  void Prefault(std::span<const uint8_t> part) const;
 
  private:
   const uint8_t* data_ = nullptr;

@@ -32,6 +32,29 @@ TEST(BinaryHeader, RoundTrip) {
   EXPECT_NO_THROW(VerifyPayloadChecksum(view, "t.bin"));
 }
 
+TEST(StreamingChecksum64, PiecesGiveTheWholeChecksum) {
+  std::vector<uint8_t> bytes(10000);
+  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<uint8_t>(i * 131 + 7);
+  StreamingChecksum64 pieces;
+  size_t at = 0;
+  for (size_t n : {0, 1, 63, 64, 1000, 5000}) {  // Across XXH3's internal block sizes.
+    pieces.Update({bytes.data() + at, n});
+    at += n;
+  }
+  pieces.Update({bytes.data() + at, bytes.size() - at});
+  EXPECT_EQ(pieces.Digest(), Checksum64(bytes));
+  StreamingChecksum64 moved = std::move(pieces);
+  EXPECT_EQ(moved.Digest(), Checksum64(bytes));
+  EXPECT_EQ(StreamingChecksum64().Digest(), Checksum64({}));
+}
+
+TEST(BinaryHeader, HeaderForAStreamedPayloadIsTheSame) {
+  const std::vector<uint8_t> fields = {9, 8, 7};
+  const std::vector<uint8_t> payload = {1, 2, 3, 4, 5, 6, 7, 8};
+  EXPECT_EQ(BuildBinaryHeader(kTestFormat, fields, payload.size(), Checksum64(payload)),
+            BuildBinaryHeader(kTestFormat, fields, payload));
+}
+
 TEST(BinaryHeader, AcceptsNewerMinor) {
   FormatSpec newer = kTestFormat;
   newer.minor = 9;

@@ -89,15 +89,8 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
 using rrslam::bench::Median;
+using rrslam::bench::Percentile;
 using rrslam::bench::Report;
-
-// Nearest-rank percentile, q in (0, 1].
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t rank = static_cast<size_t>(std::ceil(q * static_cast<double>(v.size())));
-  return v[std::clamp<size_t>(rank, 1, v.size()) - 1];
-}
 
 std::string Fixed(double value, int digits) {
   std::ostringstream out;

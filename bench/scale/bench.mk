@@ -1,31 +1,40 @@
-# `make bench-scale`: map files at 1k, 3k and 10k keyframes (issue 35), on
-# maps composed from a real map (copies on a 20 m grid, descriptors
-# perturbed, bags of words recomputed with the map's vocabulary;
+# `make bench-scale`: maps at 1k, 3k and 10k keyframes (issue 35), composed
+# from a real map (copies on a 20 m grid, descriptors perturbed by 64 bits,
+# bags of words recomputed with the map's vocabulary;
 # stages/mapstore/map_compose.h): file size per keyframe, save, load in
-# process, `rrslam-mapstore verify` as a whole process with its peak memory.
-# Goals at 10k keyframes: load <= 1.5 s, peak memory <= 2x the file, save
-# <= 2 s, verify <= 1 s. A few minutes; the 10k map takes ~1.1 GB of disk
-# in BENCH_SCALE_DIR while it is measured.
+# process, `rrslam-mapstore verify` as a whole process with its peak memory;
+# then BENCH_SCALE_STARTS cold starts of `rrslam-track --load-map
+# --localization-only` on the base map and on each composed one (frames
+# 500, 600, ... of the base map's sequence, 100 frames each: first pose
+# after process start, every relocalization attempt, tracking median, peak
+# memory). Goals at 10k keyframes: load <= 1.5 s, peak memory <= 2x the
+# file, save <= 2 s, verify <= 1 s, first pose <= 2 s, relocalization p95
+# <= 30 ms, tracking median <= 1.2x the base map's. About 5 minutes; the
+# 10k map takes ~1.1 GB of disk in BENCH_SCALE_DIR while it is measured.
 #
 # The base map: BENCH_SCALE_MAP, by default bench-dense's kitchen map
 # (frames [0, 500), made as bench-dense makes it when missing), with its
 # vocabulary BENCH_SCALE_VOCAB.
 # Result: bench/results/scale-<UTC date>[-BENCH_SCALE_TAG].txt (and .json),
-# and the curves against keyframes in ...-time.png and ...-memory.png.
+# and the curves against keyframes in ...-time.png, ...-memory.png and
+# ...-track.png.
 BENCH_SCALE_DIR ?= $(BUILD_DIR)/bench-data/scale
 BENCH_SCALE_MAP ?= $(BENCH_DENSE_MAP)
 BENCH_SCALE_VOCAB ?= $(bench_dense_pipeline)/7scenes-kitchen/voc.rrv
 BENCH_SCALE_SIZES ?= 1000,3000,10000
 BENCH_SCALE_TAG ?=
+BENCH_SCALE_STARTS ?= 3
 
 .PHONY: bench-scale
 bench-scale: configure
-	cmake --build $(BUILD_DIR) -j $(JOBS) --target rrslam-mapstore bench_scale
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target rrslam-mapstore rrslam-track bench_scale
 	@if [ ! -f "$(BENCH_DENSE_SEQUENCE)/rgb.txt" ] && [ ! -f "$(BENCH_SCALE_MAP)" ]; then \
 	  echo "bench-scale: no base map and no $(BENCH_DENSE_SEQUENCE) to make one, skipped"; exit 0; fi; \
 	$(MAKE) --no-print-directory $(BENCH_SCALE_MAP) && mkdir -p bench/results && \
 	$(BUILD_DIR)/bench/bench_scale --map $(BENCH_SCALE_MAP) --vocab $(BENCH_SCALE_VOCAB) \
 	  --mapstore $(BIN)/rrslam-mapstore --work $(BENCH_SCALE_DIR) --sizes $(BENCH_SCALE_SIZES) \
+	  --track $(BIN)/rrslam-track --sequence $(BENCH_DENSE_SEQUENCE) --settings $(BENCH_DENSE_SETTINGS) \
+	  --starts $(BENCH_SCALE_STARTS) \
 	  --machine "$$(bench/machine.sh)" \
 	  --out bench/results/scale-$$(date -u +%Y-%m-%d)$(if $(BENCH_SCALE_TAG),-$(BENCH_SCALE_TAG))
 

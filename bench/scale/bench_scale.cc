@@ -1,23 +1,33 @@
-// bench_scale: how map files scale with keyframes (`make bench-scale`,
-// issue 35), on maps composed from a real one (stages/mapstore/map_compose.h:
-// copies of the map on a 20 m grid, descriptors perturbed by 24 bits, bags
-// of words recomputed with the map's vocabulary).
+// bench_scale: how maps scale with keyframes (`make bench-scale`, issue 35),
+// on maps composed from a real one (stages/mapstore/map_compose.h: copies of
+// the map on a 20 m grid, descriptors perturbed by --flipped-bits, bags of
+// words recomputed with the map's vocabulary).
 //
 //   bench_scale --map MAP --vocab VOC --mapstore BIN --work DIR
-//               [--sizes 1000,3000,10000] --machine TEXT --out PREFIX
+//               [--sizes 1000,3000,10000] [--flipped-bits 64] --machine TEXT
+//               --out PREFIX [--track BIN --sequence SEQ --settings YAML
+//               [--starts 3] [--first-frame 500] [--start-stride 100]
+//               [--frames 100]] [--keep]
 // For each size (keyframes, rounded up to whole copies): composes the map,
 // writes it (save time: encode, write, fsync, rename, in process), its file
 // size and bytes per keyframe, loads it in process (ReadMapFile: every
 // checksum and relation; median of 3), and runs `BIN verify` as a child
 // process (the whole process to a loaded, verified map: wall time and peak
-// memory). Goals at 10k keyframes (issue 35): load <= 1.5 s whole process,
-// peak memory <= 2x the file size, save <= 2 s, verify <= 1 s; file size
-// per keyframe no larger than ~125 kB.
-// Not yet measured here: relocalization and first pose, tracking and local
-// mapping, global BA on the large maps (issue 35's other curves).
-// Writes PREFIX.txt and PREFIX.json, and the curves as PREFIX-time.png and
-// PREFIX-memory.png.
+// memory). With --track, cold starts of `rrslam-track --load-map
+// --localization-only` on the base map and on each composed map (first pose
+// after process start, every relocalization attempt, tracking median, peak
+// memory; copy 0 of a composed map is the base map, so the frames relocalize
+// there). Goals at 10k keyframes (issue 35): load <= 1.5 s whole process,
+// peak memory <= 2x the file size, save <= 2 s, verify <= 1 s, first pose
+// <= 2 s, relocalization attempt p95 <= 30 ms, tracking median <= 1.2x the
+// base map's; file size per keyframe no larger than ~125 kB.
+// Not measured here: local mapping and global BA on the large maps (issue
+// 35's other curves).
+// Writes PREFIX.txt and PREFIX.json, and the curves as PREFIX-time.png,
+// PREFIX-memory.png and (with --track) PREFIX-track.png.
 #include <CLI/CLI.hpp>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
@@ -36,14 +46,21 @@ namespace {
 namespace fs = std::filesystem;
 using rrslam::bench::ChildRun;
 using rrslam::bench::Median;
+using rrslam::bench::Percentile;
 using rrslam::bench::Report;
 using rrslam::bench::RunChild;
 
 struct Options {
   fs::path map, vocab, mapstore, work;
   std::vector<int> sizes = {1000, 3000, 10000};
+  int flipped_bits = rrslam::ComposeOptions{}.flipped_bits;
   std::string machine, out;
   bool keep = false;  // Keep the composed maps in `work` (else each is removed once measured).
+  // Cold starts on each map (none without --track): rrslam-track
+  // --load-map --localization-only from frame first_frame + i * start_stride
+  // of `sequence`, `frames` frames each.
+  fs::path track, sequence, settings;
+  int starts = 3, first_frame = 500, start_stride = 100, frames = 100;
 };
 
 // One size's figures, for the plots.
@@ -51,6 +68,15 @@ struct Row {
   double keyframes = 0;
   double save_s = 0, load_s = 0, verify_s = 0;  // Seconds.
   double file_mb = 0, peak_mb = 0;              // 10^6 bytes.
+  double first_pose_s = 0;                      // Median over the cold starts.
+  double relocalization_p95_ms = 0, tracking_median_ms = 0;
+};
+
+// What the cold starts on one map measured.
+struct ColdStarts {
+  std::vector<double> first_pose_s, map_load_s, tracking_median_ms, peak_mb;
+  std::vector<double> relocalization_ms;  // Every attempt of every start.
+  int tracked = 0, lost = 0, failed = 0;  // Frames; runs that did not exit 0.
 };
 
 struct Curve {
@@ -91,22 +117,35 @@ cv::Mat PlotCurves(const std::string& title, const std::string& v_label,
   return image;
 }
 
-// bench/results/PREFIX-{time,memory}.png: the curves of every size.
-void WritePlots(const std::string& out, const std::vector<Row>& rows) {
+// bench/results/PREFIX-{time,memory}.png: the curves of every size; with
+// cold starts, PREFIX-track.png too.
+void WritePlots(const std::string& out, const std::vector<Row>& rows, bool cold_starts) {
   Curve save{"save (s)", {40, 40, 200}, {}}, load{"load in process (s)", {200, 120, 40}, {}},
-      verify{"verify, whole process (s)", {40, 150, 40}, {}};
+      verify{"verify, whole process (s)", {40, 150, 40}, {}},
+      first_pose{"rrslam-track first pose (s)", {160, 40, 160}, {}};
   Curve file{"file (MB)", {200, 120, 40}, {}}, peak{"load peak memory (MB)", {40, 40, 200}, {}};
+  Curve relocalization{"relocalization attempt p95 (ms)", {40, 40, 200}, {}},
+      tracking{"tracking median (ms)", {40, 150, 40}, {}};
   for (const Row& r : rows) {
     save.points.emplace_back(r.keyframes, r.save_s);
     load.points.emplace_back(r.keyframes, r.load_s);
     verify.points.emplace_back(r.keyframes, r.verify_s);
+    first_pose.points.emplace_back(r.keyframes, r.first_pose_s);
     file.points.emplace_back(r.keyframes, r.file_mb);
     peak.points.emplace_back(r.keyframes, r.peak_mb);
+    relocalization.points.emplace_back(r.keyframes, r.relocalization_p95_ms);
+    tracking.points.emplace_back(r.keyframes, r.tracking_median_ms);
   }
+  std::vector<Curve> times = {save, load, verify};
+  if (cold_starts) times.push_back(first_pose);
   rrslam::WritePng(out + "-time.png",
-                   PlotCurves("map file times against keyframes", "seconds", {save, load, verify}));
+                   PlotCurves("map file times against keyframes", "seconds", times));
   rrslam::WritePng(out + "-memory.png",
                    PlotCurves("map file and load memory against keyframes", "MB", {file, peak}));
+  if (cold_starts) {
+    rrslam::WritePng(out + "-track.png", PlotCurves("rrslam-track on the map (localization only)",
+                                                    "milliseconds", {relocalization, tracking}));
+  }
 }
 
 double SecondsOf(const std::function<void()>& f) {
@@ -115,9 +154,74 @@ double SecondsOf(const std::function<void()>& f) {
   return rrslam::MillisecondsSince(start) / 1000.0;
 }
 
+// `o.starts` cold starts of rrslam-track on `map` (localization only).
+ColdStarts RunColdStarts(const Options& o, const fs::path& map) {
+  ColdStarts c;
+  for (int i = 0; i < o.starts; ++i) {
+    const fs::path out = o.work / "track";
+    const ChildRun run = RunChild(
+        {o.track.string(), "--quiet", "--sequence", o.sequence.string(), "--settings",
+         o.settings.string(), "--vocab", o.vocab.string(), "--load-map", map.string(),
+         "--localization-only", "--first-frame", std::to_string(o.first_frame + i * o.start_stride),
+         "--max-frames", std::to_string(o.frames), "--out", out.string()},
+        o.work / "track.txt");
+    if (run.exit_code != 0) {
+      ++c.failed;
+      continue;
+    }
+    std::ifstream in(out / "run.json");
+    const nlohmann::json r = nlohmann::json::parse(in);
+    const nlohmann::json& startup = r.at("startup");
+    if (startup.value("first_pose_frame", -1) >= 0) {
+      c.first_pose_s.push_back(startup.at("first_pose_ms").get<double>() / 1e3);
+    }
+    c.map_load_s.push_back(startup.at("map_load_ms").get<double>() / 1e3);
+    c.tracking_median_ms.push_back(r.at("timings").at("tracking").at("median_ms").get<double>());
+    for (const nlohmann::json& a : r.at("relocalization_attempts")) {
+      c.relocalization_ms.push_back(a.at("ms").get<double>());
+    }
+    c.tracked += r.at("counts").at("tracked").get<int>();
+    c.lost += r.at("counts").at("lost").get<int>();
+    c.peak_mb.push_back(run.max_rss_mb);
+  }
+  return c;
+}
+
+// The cold starts' figures; goals at 10k keyframes (`big`), tracking against
+// the base map's median (`base_tracking_ms`, 0: this is the base map).
+void AddColdStarts(const ColdStarts& c, const std::string& s, bool big, double base_tracking_ms,
+                   Report* report, Row* row) {
+  const std::string n = std::to_string(c.map_load_s.size());
+  const auto goal = [&](const std::string& text) { return big ? text : std::string("-"); };
+  row->first_pose_s = c.first_pose_s.size() == c.map_load_s.size() ? Median(c.first_pose_s) : 0;
+  row->relocalization_p95_ms = Percentile(c.relocalization_ms, 0.95);
+  row->tracking_median_ms = Median(c.tracking_median_ms);
+  report->Add(s,
+              {"cold starts: runs failed", static_cast<double>(c.failed), "", "0", c.failed == 0});
+  report->Add(s, {"first pose after process start (median of " + n + " starts)", row->first_pose_s,
+                  "s", goal("<= 2 s"), !big || (row->first_pose_s > 0 && row->first_pose_s <= 2)});
+  report->Add(s, {"  of which the map's load (median)", Median(c.map_load_s), "s", "-", true});
+  const std::string attempts = std::to_string(c.relocalization_ms.size()) + " attempts";
+  report->Add(s, {"relocalization attempt median (" + attempts + ")", Median(c.relocalization_ms),
+                  "ms", "-", true});
+  report->Add(s, {"relocalization attempt p95", row->relocalization_p95_ms, "ms", goal("<= 30 ms"),
+                  !big || row->relocalization_p95_ms <= 30});
+  report->Add(s, {"tracking median per frame (median of the starts)", row->tracking_median_ms, "ms",
+                  "-", true});
+  if (base_tracking_ms > 0) {
+    const double ratio = row->tracking_median_ms / base_tracking_ms;
+    report->Add(s,
+                {"  against the base map's", ratio, "x", goal("<= 1.2 x"), !big || ratio <= 1.2});
+  }
+  report->Add(s, {"frames tracked", static_cast<double>(c.tracked), "", "-", true});
+  report->Add(s, {"frames lost", static_cast<double>(c.lost), "", "-", true});
+  report->Add(s, {"track peak memory (median)", Median(c.peak_mb), "MB", "-", true});
+}
+
 Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Vocabulary& vocab,
-                int size, Report* report) {
+                int size, double base_tracking_ms, Report* report) {
   rrslam::ComposeOptions compose;
+  compose.flipped_bits = o.flipped_bits;
   compose.copies = static_cast<int>((size + base.keyframes.size() - 1) / base.keyframes.size());
   const int levels_up = base.bow_levels_up;
   const auto rebag = [&](rrslam::KeyFrameRecord* kf) {
@@ -159,13 +263,17 @@ Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Voc
   const double ratio = verify.max_rss_mb * 1e6 / bytes;
   report->Add(s, {"load peak memory / file size", ratio, "x", goal("<= 2 x"), !big || ratio <= 2});
   report->Add(s, {"load peak memory", verify.max_rss_mb, "MB", "-", true});
-  if (!o.keep) fs::remove(path);
-  return {static_cast<double>(keyframes),
+  Row row{static_cast<double>(keyframes),
           save_s,
           Median(loads),
           verify.wall_s,
           bytes / 1e6,
           verify.max_rss_mb};
+  if (!o.track.empty()) {
+    AddColdStarts(RunColdStarts(o, path), s, big, base_tracking_ms, report, &row);
+  }
+  if (!o.keep) fs::remove(path);
+  return row;
 }
 
 std::vector<int> ParseSizes(const std::string& text) {
@@ -189,6 +297,14 @@ int main(int argc, char** argv) {
   app.add_option("--machine", o.machine)->required();
   app.add_option("--out", o.out)->required();
   app.add_flag("--keep", o.keep, "Keep the composed maps in --work");
+  app.add_option("--flipped-bits", o.flipped_bits, "Descriptor bits flipped in copies 1...");
+  app.add_option("--track", o.track, "rrslam-track, for cold starts on each map");
+  app.add_option("--sequence", o.sequence, "The cold starts' sequence (the base map's)");
+  app.add_option("--settings", o.settings, "Its settings");
+  app.add_option("--starts", o.starts, "Cold starts per map");
+  app.add_option("--first-frame", o.first_frame, "Frame of the first cold start");
+  app.add_option("--start-stride", o.start_stride, "Frames between cold starts");
+  app.add_option("--frames", o.frames, "Frames tracked per cold start");
   CLI11_PARSE(app, argc, argv);
   o.sizes = ParseSizes(sizes);
   fs::create_directories(o.work);
@@ -196,8 +312,17 @@ int main(int argc, char** argv) {
   const rrslam::Vocabulary vocab = rrslam::Vocabulary::Load(o.vocab);
   Report report;
   std::vector<Row> rows;
-  for (const int size : o.sizes) rows.push_back(MeasureSize(o, base, vocab, size, &report));
-  WritePlots(o.out, rows);
+  double base_tracking_ms = 0;
+  if (!o.track.empty()) {
+    const std::string s = "base map (" + std::to_string(base.keyframes.size()) + " keyframes)";
+    Row row;
+    AddColdStarts(RunColdStarts(o, o.map), s, false, 0, &report, &row);
+    base_tracking_ms = row.tracking_median_ms;
+  }
+  for (const int size : o.sizes) {
+    rows.push_back(MeasureSize(o, base, vocab, size, base_tracking_ms, &report));
+  }
+  WritePlots(o.out, rows, !o.track.empty());
   rrslam::bench::WriteGoalResults(o.out,
                                   "Issue 35: map files at scale, composed from " + o.map.string() +
                                       " (" + std::to_string(base.keyframes.size()) + " keyframes)",

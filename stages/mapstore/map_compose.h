@@ -19,8 +19,12 @@ namespace rrslam {
 struct ComposeOptions {
   int copies = 10;        // The result holds this many copies of the base, >= 1.
   double spacing = 20.0;  // Metres between neighbouring copies on the grid.
-  int flipped_bits = 24;  // Descriptor bits flipped at random per descriptor in copies 1...
-  uint64_t seed = 1;      // Of the bit flips: the result is reproducible.
+  // Descriptor bits flipped at random per descriptor in copies 1... (up to:
+  // a bit may be drawn twice). Beyond ORB matching's 50-bit threshold
+  // (TH_LOW): with 24, every copy still matched the base's keypoints, and
+  // a place of the base looked like 100 places of the building.
+  int flipped_bits = 64;
+  uint64_t seed = 1;  // Of the bit flips: the result is reproducible.
 };
 
 // Called on every keyframe of copies 1... after its descriptors changed, to

@@ -1,12 +1,21 @@
 #include "stages/mapstore/map_file.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <limits>
+#include <stdexcept>
 #include <system_error>
+#include <type_traits>
+#include <utility>
 
 #include "common/atomic_file.h"
 #include "common/binary_header.h"
@@ -195,6 +204,291 @@ void WritePose(const MapPose& T, uint8_t* p) {
   for (int i = 0; i < 7; ++i) Store<double>(p + 8 * i, v[i]);
 }
 
+void WriteMapPoint(const MapPointRecord& mp, uint8_t* p) {
+  Store<uint64_t>(p + 0, mp.id);
+  for (int k = 0; k < 3; ++k) {
+    Store<double>(p + 8 + 8 * k, mp.position[k]);
+    Store<double>(p + 32 + 8 * k, mp.normal[k]);
+  }
+  Store<double>(p + 56, mp.min_distance);
+  Store<double>(p + 64, mp.max_distance);
+  std::memcpy(p + 72, mp.descriptor.bytes, kDescriptorSize);
+  Store<int32_t>(p + 104, mp.visible);
+  Store<int32_t>(p + 108, mp.found);
+  Store<uint64_t>(p + 112, mp.reference_keyframe);
+  Store<uint64_t>(p + 120, mp.first_keyframe);
+  Store<uint32_t>(p + 128, static_cast<uint32_t>(mp.observations.size()));
+}
+
+// Where every section goes: sizes and offsets from the counts (sections in
+// table order, each at its alignment), the header's size.
+struct MapLayout {
+  MapCounts counts;
+  std::array<uint64_t, kNumSections> size{}, offset{};
+  uint64_t payload_size = 0;
+  size_t header_size = 0;
+};
+
+MapLayout LayOut(const MapData& map) {
+  MapLayout l;
+  l.counts = CountMap(map);
+  l.size[kMeta] = kMetaFixedSize + map.vocabulary.name.size() + map.metadata.size();
+  for (int i = kKeyframes; i < kNumSections; ++i) l.size[i] = ExpectedSectionSize(i, l.counts);
+  for (int i = 0; i < kNumSections; ++i) {
+    l.offset[i] = AlignUp(l.payload_size, SectionAlignment(i));
+    l.payload_size = l.offset[i] + l.size[i];
+  }
+  l.payload_size = AlignUp(l.payload_size, 8);
+  l.header_size = kBaseHeaderSize + kTableStart + kSectionEntrySize * kNumSections;
+  return l;
+}
+
+using PayloadSink = std::function<void(std::span<const uint8_t>)>;
+
+// The payload in order, through a buffer of kChunkBytes handed to the sink
+// when full; checksums of the payload and of the section being written
+// (padding between sections is zero and belongs to no section).
+class PayloadWriter {
+ public:
+  static constexpr size_t kChunkBytes = size_t{4} << 20;
+
+  explicit PayloadWriter(PayloadSink sink) : sink_(std::move(sink)), chunk_(kChunkBytes) {}
+
+  // Zero bytes up to `offset`, then a section starts there.
+  void BeginSection(uint64_t offset) {
+    if (offset < written_ + fill_) throw std::logic_error("EncodeMap: section offsets");
+    Zeros(offset - written_ - fill_);
+    Flush();
+    section_ = StreamingChecksum64();
+    section_start_ = offset;
+  }
+  // The section's checksum; throws unless it took `size` bytes.
+  uint64_t EndSection(uint64_t size) {
+    Flush();
+    if (written_ - section_start_ != size) throw std::logic_error("EncodeMap: section size");
+    return section_.Digest();
+  }
+  // Space for one zeroed record of `size` (<= kChunkBytes) bytes.
+  uint8_t* Record(size_t size) {
+    if (fill_ + size > chunk_.size()) Flush();
+    uint8_t* p = chunk_.data() + fill_;
+    std::memset(p, 0, size);
+    fill_ += size;
+    return p;
+  }
+  void Bytes(const void* data, size_t size) {
+    const auto* p = static_cast<const uint8_t*>(data);
+    while (size > 0) {
+      if (fill_ == chunk_.size()) Flush();
+      const size_t n = std::min(size, chunk_.size() - fill_);
+      std::memcpy(chunk_.data() + fill_, p, n);
+      fill_ += n;
+      p += n;
+      size -= n;
+    }
+  }
+  void Zeros(uint64_t size) {
+    for (; size > 0; --size) *Record(1) = 0;
+  }
+  // Pads to `payload_size`, hands over the rest; the payload's checksum.
+  uint64_t Finish(uint64_t payload_size) {
+    Zeros(payload_size - written_ - fill_);
+    Flush();
+    return payload_.Digest();
+  }
+
+ private:
+  void Flush() {
+    if (fill_ == 0) return;
+    const std::span<const uint8_t> bytes(chunk_.data(), fill_);
+    payload_.Update(bytes);
+    section_.Update(bytes);
+    sink_(bytes);
+    written_ += fill_;
+    fill_ = 0;
+  }
+
+  PayloadSink sink_;
+  std::vector<uint8_t> chunk_;
+  size_t fill_ = 0;
+  uint64_t written_ = 0, section_start_ = 0;
+  StreamingChecksum64 payload_, section_;
+};
+
+// One pass over the keyframes per section.
+void EncodeKeyframeTable(const MapData& map, PayloadWriter* w) {
+  for (const KeyFrameRecord& kf : map.keyframes) {
+    const size_t n = kf.keypoints.size();
+    if (kf.descriptors.size() != n || kf.map_point_ids.size() != n) {
+      throw std::invalid_argument("EncodeMap: keyframe " + std::to_string(kf.id) +
+                                  ": descriptors / map_point_ids not parallel to keypoints");
+    }
+    uint8_t* r = w->Record(kKeyframeRecordSize);
+    Store<uint64_t>(r + 0, kf.id);
+    Store<uint64_t>(r + 8, kf.frame_id);
+    Store<double>(r + 16, kf.timestamp);
+    WritePose(kf.T_cam_world, r + 24);
+    Store<uint64_t>(r + 80, kf.parent);
+    Store<uint32_t>(r + 88, static_cast<uint32_t>(n));
+    Store<uint32_t>(r + 92, static_cast<uint32_t>(kf.bow.size()));
+    Store<uint32_t>(r + 96, static_cast<uint32_t>(kf.feature_vector.size()));
+    Store<uint32_t>(r + 100, static_cast<uint32_t>(kf.connections.size()));
+    Store<uint32_t>(r + 104, static_cast<uint32_t>(kf.loop_edges.size()));
+  }
+}
+
+void EncodeSection(const MapData& map, int section, PayloadWriter* w) {
+  const auto each = [&](auto&& f) {
+    for (const KeyFrameRecord& kf : map.keyframes) f(kf);
+  };
+  switch (section) {
+    case kKeyframes:
+      return EncodeKeyframeTable(map, w);
+    case kKeypoints:
+      return each([&](const KeyFrameRecord& kf) {
+        for (const MapKeypoint& k : kf.keypoints) WriteKeypoint(k, w->Record(kKeypointRecordSize));
+      });
+    case kDescriptors:
+      return each([&](const KeyFrameRecord& kf) {
+        w->Bytes(kf.descriptors.data(), kDescriptorSize * kf.descriptors.size());
+      });
+    case kKfPoints:
+      return each([&](const KeyFrameRecord& kf) {
+        w->Bytes(kf.map_point_ids.data(), 8 * kf.map_point_ids.size());
+      });
+    case kBow:
+      return each([&](const KeyFrameRecord& kf) {
+        for (const auto& [word, value] : kf.bow) {
+          uint8_t* r = w->Record(kBowEntrySize);
+          Store<uint32_t>(r, word);
+          Store<double>(r + 8, value);
+        }
+      });
+    case kFeatureVectors:
+      each([&](const KeyFrameRecord& kf) {
+        for (const auto& [node, list] : kf.feature_vector) {
+          uint8_t* r = w->Record(kFvGroupSize);
+          Store<uint32_t>(r, node);
+          Store<uint32_t>(r + 4, static_cast<uint32_t>(list.size()));
+        }
+      });
+      return each([&](const KeyFrameRecord& kf) {
+        for (const auto& group : kf.feature_vector) {
+          w->Bytes(group.second.data(), kFvIndexSize * group.second.size());
+        }
+      });
+    case kGraph:
+      each([&](const KeyFrameRecord& kf) {
+        for (const auto& [id, weight] : kf.connections) {
+          uint8_t* r = w->Record(kConnectionSize);
+          Store<uint64_t>(r, id);
+          Store<int32_t>(r + 8, weight);
+        }
+      });
+      return each([&](const KeyFrameRecord& kf) {
+        w->Bytes(kf.loop_edges.data(), kLoopEdgeSize * kf.loop_edges.size());
+      });
+    case kMapPoints:
+      for (const MapPointRecord& mp : map.map_points)
+        WriteMapPoint(mp, w->Record(kMapPointRecordSize));
+      return;
+    case kObservations:
+      for (const MapPointRecord& mp : map.map_points) {
+        for (const auto& [kf, index] : mp.observations) {
+          uint8_t* r = w->Record(kObservationSize);
+          Store<uint64_t>(r, kf);
+          Store<uint32_t>(r + 8, index);
+        }
+      }
+      return;
+  }
+}
+
+struct EncodedHeader {
+  std::vector<uint8_t> bytes;  // The whole header, section table included.
+  MapFileInfo info;
+};
+
+// Streams the payload of `map` laid out as `layout` to `sink`; the header.
+EncodedHeader EncodeWith(const MapData& map, const MapLayout& layout, PayloadSink sink) {
+  PayloadWriter w(std::move(sink));
+  EncodedHeader out;
+  out.info.major = kMapFormat.major;
+  out.info.minor = kMapFormat.minor;
+  out.info.file_size = layout.header_size + layout.payload_size;
+  for (int i = 0; i < kNumSections; ++i) {
+    w.BeginSection(layout.offset[i]);
+    if (i == kMeta) {
+      std::vector<uint8_t> meta(layout.size[kMeta], 0);
+      WriteMeta(map, layout.counts, meta.data());
+      w.Bytes(meta.data(), meta.size());
+    } else {
+      EncodeSection(map, i, &w);
+    }
+    out.info.sections.push_back(
+        {kSectionNames[i], layout.offset[i], layout.size[i], w.EndSection(layout.size[i])});
+  }
+  const uint64_t payload_checksum = w.Finish(layout.payload_size);
+
+  std::vector<uint8_t> fields(kTableStart + kSectionEntrySize * kNumSections, 0);
+  Store<uint32_t>(fields.data(), kNumSections);
+  for (int i = 0; i < kNumSections; ++i) {
+    const MapSectionInfo& section = out.info.sections[i];
+    uint8_t* e = fields.data() + kTableStart + kSectionEntrySize * i;
+    std::memcpy(e, section.name.data(), section.name.size());
+    Store<uint64_t>(e + 16, section.offset);
+    Store<uint64_t>(e + 24, section.size);
+    Store<uint64_t>(e + 32, section.checksum);
+  }
+  out.bytes = BuildBinaryHeader(kMapFormat, fields, layout.payload_size, payload_checksum);
+  if (out.bytes.size() != layout.header_size) throw std::logic_error("EncodeMap: header size");
+  return out;
+}
+
+// Writes to a file descriptor it owns, and starts the disk's writeback of
+// each piece as it goes (sync_file_range), so that the fsync of the commit
+// waits for the last pieces only instead of the whole file.
+class FileSink {
+ public:
+  FileSink(const std::filesystem::path& file, std::string name) : name_(std::move(name)) {
+    fd_ = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw CantCreateError(name_ + ": cannot create " + file.string());
+  }
+  ~FileSink() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  FileSink(const FileSink&) = delete;
+  FileSink& operator=(const FileSink&) = delete;
+
+  void Skip(uint64_t bytes) { at_ += bytes; }
+  void Append(std::span<const uint8_t> bytes) {
+    WriteAt(at_, bytes);
+    // Best effort: where unsupported, the commit's fsync writes it all.
+    ::sync_file_range(fd_, static_cast<off_t>(at_), static_cast<off_t>(bytes.size()),
+                      SYNC_FILE_RANGE_WRITE);
+    at_ += bytes.size();
+  }
+  void WriteAt(uint64_t offset, std::span<const uint8_t> bytes) {
+    size_t done = 0;
+    while (done < bytes.size()) {
+      const ssize_t n = ::pwrite(fd_, bytes.data() + done, bytes.size() - done,
+                                 static_cast<off_t>(offset + done));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) throw CantCreateError(name_ + ": write failed: " + std::strerror(errno));
+      done += static_cast<size_t>(n);
+    }
+  }
+  void Close() {
+    const int fd = std::exchange(fd_, -1);
+    if (::close(fd) != 0) throw CantCreateError(name_ + ": write failed: " + std::strerror(errno));
+  }
+
+ private:
+  int fd_ = -1;
+  std::string name_;
+  uint64_t at_ = 0;
+};
+
 // ---------------------------------------------------------------------------
 // Header and section table
 
@@ -262,9 +556,8 @@ ParsedHeader ParseHeader(std::span<const uint8_t> file, const std::string& sourc
 using Sections = std::array<std::span<const uint8_t>, kNumSections>;
 
 // Finds a known section in the table (unknown ones are ignored: a newer
-// minor version may add sections) and checks its checksum.
-std::span<const uint8_t> CheckedSection(const ParsedHeader& h, int section,
-                                        const std::string& source) {
+// minor version may add sections).
+const MapSectionInfo& FindSection(const ParsedHeader& h, int section, const std::string& source) {
   const MapSectionInfo* found = nullptr;
   for (const MapSectionInfo& s : h.info.sections) {
     if (s.name != kSectionNames[section]) continue;
@@ -272,11 +565,7 @@ std::span<const uint8_t> CheckedSection(const ParsedHeader& h, int section,
     found = &s;
   }
   if (found == nullptr) throw DataError(source + ": " + SectionText(section) + " is missing");
-  const std::span<const uint8_t> bytes = h.payload.subspan(found->offset, found->size);
-  if (Checksum64(bytes) != found->checksum) {
-    throw DataError(source + ": " + SectionText(section) + ": checksum mismatch (file corrupt)");
-  }
-  return bytes;
+  return *found;
 }
 
 // The known sections, each checked against its checksum, then the whole
@@ -284,7 +573,17 @@ std::span<const uint8_t> CheckedSection(const ParsedHeader& h, int section,
 // sections this version does not know).
 Sections CheckedSections(const ParsedHeader& h, const std::string& source) {
   Sections s;
-  for (int i = 0; i < kNumSections; ++i) s[i] = CheckedSection(h, i, source);
+  std::array<uint64_t, kNumSections> expected{};
+  for (int i = 0; i < kNumSections; ++i) {
+    const MapSectionInfo& section = FindSection(h, i, source);
+    s[i] = h.payload.subspan(section.offset, section.size);
+    expected[i] = section.checksum;
+  }
+  for (int i = 0; i < kNumSections; ++i) {
+    if (Checksum64(s[i]) != expected[i]) {
+      throw DataError(source + ": " + SectionText(i) + ": checksum mismatch (file corrupt)");
+    }
+  }
   if (Checksum64(h.payload) != h.payload_checksum) {
     throw DataError(source +
                     ": payload checksum mismatch outside the known sections (file corrupt)");
@@ -362,17 +661,18 @@ void CheckTotal(uint64_t total, uint64_t expected, const char* what, const char*
   }
 }
 
-// Positions in the concatenated arrays of keyframe entries (counts of
-// entries, not bytes).
-struct KeyframeCursor {
-  uint64_t keypoint = 0, bow = 0, group = 0, index = 0, connection = 0, loop = 0;
+// Per-keyframe entry counts of a keyframe record.
+struct KeyframeCounts {
+  uint32_t keypoints = 0, bow = 0, groups = 0, connections = 0, loops = 0;
 };
 
-// Parses the keyframe of record `r`, whose entries start at `*cursor`, and
-// moves `*cursor` past them.
-void ParseKeyframe(const Sections& s, const MapCounts& c, const uint8_t* r, KeyframeCursor* cursor,
-                   KeyFrameRecord* out) {
-  KeyframeCursor& at = *cursor;
+KeyframeCounts CountsOf(const uint8_t* r) {
+  return {Load<uint32_t>(r + 88), Load<uint32_t>(r + 92), Load<uint32_t>(r + 96),
+          Load<uint32_t>(r + 100), Load<uint32_t>(r + 104)};
+}
+
+// The fixed fields of the keyframe record `r`.
+void ParseKeyframeRecord(const uint8_t* r, KeyFrameRecord* out) {
   KeyFrameRecord& kf = *out;
   kf.id = Load<uint64_t>(r + 0);
   kf.frame_id = Load<uint64_t>(r + 8);
@@ -386,74 +686,74 @@ void ParseKeyframe(const Sections& s, const MapCounts& c, const uint8_t* r, Keyf
   T.ty = Load<double>(r + 64);
   T.tz = Load<double>(r + 72);
   kf.parent = Load<uint64_t>(r + 80);
-  const uint32_t n = Load<uint32_t>(r + 88);
-  const uint32_t n_bow = Load<uint32_t>(r + 92);
-  const uint32_t n_groups = Load<uint32_t>(r + 96);
-  const uint32_t n_connections = Load<uint32_t>(r + 100);
-  const uint32_t n_loops = Load<uint32_t>(r + 104);
+}
 
-  const uint8_t* keypoints = s[kKeypoints].data() + kKeypointRecordSize * at.keypoint;
-  kf.keypoints.resize(n);
-  for (uint32_t k = 0; k < n; ++k) {
-    MapKeypoint& kp = kf.keypoints[k];
-    const uint8_t* q = keypoints + kKeypointRecordSize * k;
-    kp.pixel_x = Load<float>(q + 0);
-    kp.pixel_y = Load<float>(q + 4);
-    kp.undistorted_x = Load<float>(q + 8);
-    kp.undistorted_y = Load<float>(q + 12);
-    kp.angle_deg = Load<float>(q + 16);
-    kp.response = Load<float>(q + 20);
-    kp.depth = Load<float>(q + 24);
-    kp.u_right = Load<float>(q + 28);
-    kp.octave = q[32];
-  }
-  kf.descriptors.resize(n);
-  if (n > 0) {
-    std::memcpy(kf.descriptors.data(), s[kDescriptors].data() + kDescriptorSize * at.keypoint,
-                kDescriptorSize * n);
-  }
-  kf.map_point_ids.resize(n);
-  if (n > 0) {
-    std::memcpy(kf.map_point_ids.data(), s[kKfPoints].data() + 8 * at.keypoint, 8 * size_t{n});
-  }
+// A keypoint record is a MapKeypoint's bytes (little-endian host), copied
+// whole; the 3 bytes after the octave are padding (0 in the file).
+static_assert(sizeof(MapKeypoint) == kKeypointRecordSize && alignof(MapKeypoint) == 4);
+static_assert(offsetof(MapKeypoint, pixel_x) == 0 && offsetof(MapKeypoint, pixel_y) == 4 &&
+              offsetof(MapKeypoint, undistorted_x) == 8 &&
+              offsetof(MapKeypoint, undistorted_y) == 12 &&
+              offsetof(MapKeypoint, angle_deg) == 16 && offsetof(MapKeypoint, response) == 20 &&
+              offsetof(MapKeypoint, depth) == 24 && offsetof(MapKeypoint, u_right) == 28 &&
+              offsetof(MapKeypoint, octave) == 32);
+static_assert(sizeof(OrbDescriptor) == kDescriptorSize);
 
-  const uint8_t* bow = s[kBow].data() + kBowEntrySize * at.bow;
-  kf.bow.resize(n_bow);
-  for (uint32_t k = 0; k < n_bow; ++k) {
-    kf.bow[k] = {Load<uint32_t>(bow + kBowEntrySize * k),
-                 Load<double>(bow + kBowEntrySize * k + 8)};
-  }
+// Copies `count` entries of `size` bytes at `*p` into `out` (trivially
+// copyable, the same layout) and moves `*p` past them.
+template <typename T>
+void CopyEntries(const uint8_t** p, uint32_t count, size_t size, std::vector<T>* out) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  out->resize(count);
+  if (count > 0) std::memcpy(out->data(), *p, size * count);
+  *p += size * count;
+}
 
-  const uint8_t* groups = s[kFeatureVectors].data() + kFvGroupSize * at.group;
-  const uint8_t* indices =
-      s[kFeatureVectors].data() + kFvGroupSize * c.feature_vector_groups + kFvIndexSize * at.index;
-  kf.feature_vector.resize(n_groups);
-  for (uint32_t g = 0; g < n_groups; ++g) {
-    auto& [node, list] = kf.feature_vector[g];
-    node = Load<uint32_t>(groups + kFvGroupSize * g);
-    const uint32_t count = Load<uint32_t>(groups + kFvGroupSize * g + 4);
-    list.resize(count);
-    if (count > 0) std::memcpy(list.data(), indices, kFvIndexSize * count);
-    indices += kFvIndexSize * count;
-    at.index += count;
+// Fills one section's entries of every keyframe, in keyframe order (the
+// counts were checked against the section's size before).
+void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const MapCounts& c,
+                          const uint8_t* table, std::vector<KeyFrameRecord>* keyframes) {
+  const uint8_t* p = bytes.data();
+  const uint8_t* indices = p + kFvGroupSize * c.feature_vector_groups;
+  const uint8_t* loops = p + kConnectionSize * c.connections;
+  for (size_t i = 0; i < keyframes->size(); ++i) {
+    KeyFrameRecord& kf = (*keyframes)[i];
+    const KeyframeCounts n = CountsOf(table + kKeyframeRecordSize * i);
+    switch (section) {
+      case kKeypoints:
+        CopyEntries(&p, n.keypoints, kKeypointRecordSize, &kf.keypoints);
+        break;
+      case kDescriptors:
+        CopyEntries(&p, n.keypoints, kDescriptorSize, &kf.descriptors);
+        break;
+      case kKfPoints:
+        CopyEntries(&p, n.keypoints, 8, &kf.map_point_ids);
+        break;
+      case kBow:
+        kf.bow.resize(n.bow);
+        for (auto& entry : kf.bow) {
+          entry = {Load<uint32_t>(p), Load<double>(p + 8)};
+          p += kBowEntrySize;
+        }
+        break;
+      case kFeatureVectors:
+        kf.feature_vector.resize(n.groups);
+        for (auto& [node, list] : kf.feature_vector) {
+          node = Load<uint32_t>(p);
+          CopyEntries(&indices, Load<uint32_t>(p + 4), kFvIndexSize, &list);
+          p += kFvGroupSize;
+        }
+        break;
+      case kGraph:
+        kf.connections.resize(n.connections);
+        for (auto& entry : kf.connections) {
+          entry = {Load<uint64_t>(p), Load<int32_t>(p + 8)};
+          p += kConnectionSize;
+        }
+        CopyEntries(&loops, n.loops, kLoopEdgeSize, &kf.loop_edges);
+        break;
+    }
   }
-
-  const uint8_t* connections = s[kGraph].data() + kConnectionSize * at.connection;
-  kf.connections.resize(n_connections);
-  for (uint32_t k = 0; k < n_connections; ++k) {
-    kf.connections[k] = {Load<uint64_t>(connections + kConnectionSize * k),
-                         Load<int32_t>(connections + kConnectionSize * k + 8)};
-  }
-  const uint8_t* loops =
-      s[kGraph].data() + kConnectionSize * c.connections + kLoopEdgeSize * at.loop;
-  kf.loop_edges.resize(n_loops);
-  if (n_loops > 0) std::memcpy(kf.loop_edges.data(), loops, kLoopEdgeSize * n_loops);
-
-  at.keypoint += n;
-  at.bow += n_bow;
-  at.group += n_groups;
-  at.connection += n_connections;
-  at.loop += n_loops;
 }
 
 // Parses the map point of record `r`, whose observations start at
@@ -481,7 +781,9 @@ const uint8_t* ParseMapPoint(const uint8_t* r, const uint8_t* observations, MapP
   return observations + kObservationSize * n;
 }
 
-MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info) {
+// `mapping`, when non-null, is the mapped file that `file` is.
+MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info,
+                 const MappedFile* mapping) {
   const ParsedHeader h = ParseHeader(file, source);
   const Sections s = CheckedSections(h, source);
   MapCounts c;
@@ -503,25 +805,23 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
   // Per-keyframe counts, summed (in 64 bits: each is 32-bit) and compared with
   // the totals before any per-keyframe array is filled.
   const uint8_t* kf_bytes = s[kKeyframes].data();
-  KeyframeCursor sum;
+  uint64_t sum[5] = {0, 0, 0, 0, 0};
   for (uint64_t i = 0; i < c.keyframes; ++i) {
-    const uint8_t* r = kf_bytes + kKeyframeRecordSize * i;
-    sum.keypoint += Load<uint32_t>(r + 88);
-    sum.bow += Load<uint32_t>(r + 92);
-    sum.group += Load<uint32_t>(r + 96);
-    sum.connection += Load<uint32_t>(r + 100);
-    sum.loop += Load<uint32_t>(r + 104);
+    const KeyframeCounts n = CountsOf(kf_bytes + kKeyframeRecordSize * i);
+    const uint32_t each[5] = {n.keypoints, n.bow, n.groups, n.connections, n.loops};
+    for (int k = 0; k < 5; ++k) sum[k] += each[k];
   }
-  CheckTotal(sum.keypoint, c.keypoints, "keypoints", "keyframes", source);
-  CheckTotal(sum.bow, c.bow_entries, "bow entries", "keyframes", source);
-  CheckTotal(sum.group, c.feature_vector_groups, "feature vector groups", "keyframes", source);
-  CheckTotal(sum.connection, c.connections, "connections", "keyframes", source);
-  CheckTotal(sum.loop, c.loop_edges, "loop edges", "keyframes", source);
+  CheckTotal(sum[0], c.keypoints, "keypoints", "keyframes", source);
+  CheckTotal(sum[1], c.bow_entries, "bow entries", "keyframes", source);
+  CheckTotal(sum[2], c.feature_vector_groups, "feature vector groups", "keyframes", source);
+  CheckTotal(sum[3], c.connections, "connections", "keyframes", source);
+  CheckTotal(sum[4], c.loop_edges, "loop edges", "keyframes", source);
   const uint8_t* groups = s[kFeatureVectors].data();
+  uint64_t sum_indices = 0;
   for (uint64_t g = 0; g < c.feature_vector_groups; ++g) {
-    sum.index += Load<uint32_t>(groups + kFvGroupSize * g + 4);
+    sum_indices += Load<uint32_t>(groups + kFvGroupSize * g + 4);
   }
-  CheckTotal(sum.index, c.feature_vector_indices, "feature vector indices", "feature_vectors",
+  CheckTotal(sum_indices, c.feature_vector_indices, "feature vector indices", "feature_vectors",
              source);
   const uint8_t* mp_bytes = s[kMapPoints].data();
   uint64_t sum_observations = 0;
@@ -530,18 +830,43 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
   }
   CheckTotal(sum_observations, c.observations, "observations", "map_points", source);
 
-  // Records. Every read below stays within its section by the checks above.
+  // Records, one section at a time (a mapped file's section is dropped from
+  // memory once parsed: the records and one section are resident at once).
+  // Every read below stays within its section by the checks above.
+  const auto prefault = [&](int i) {
+    if (mapping != nullptr) mapping->Prefault(s[i]);
+  };
+  const auto release = [&](int i) {
+    if (mapping != nullptr) mapping->Release(s[i]);
+  };
+  if (mapping != nullptr) mapping->Release(h.payload);  // Read once by the checksums.
   map.keyframes.resize(c.keyframes);
-  KeyframeCursor at;
+  prefault(kKeyframes);
   for (uint64_t i = 0; i < c.keyframes; ++i) {
-    ParseKeyframe(s, c, kf_bytes + kKeyframeRecordSize * i, &at, &map.keyframes[i]);
+    ParseKeyframeRecord(kf_bytes + kKeyframeRecordSize * i, &map.keyframes[i]);
   }
-  const uint8_t* observations = s[kObservations].data();
+  const auto parse_keyframe_sections = [&](std::initializer_list<int> sections) {
+    for (const int i : sections) {
+      prefault(i);
+      ParseKeyframeEntries(i, s[i], c, kf_bytes, &map.keyframes);
+      release(i);
+    }
+  };
   map.map_points.resize(c.map_points);
-  for (uint64_t i = 0; i < c.map_points; ++i) {
-    observations =
-        ParseMapPoint(mp_bytes + kMapPointRecordSize * i, observations, &map.map_points[i]);
-  }
+  const auto parse_map_points = [&] {
+    prefault(kMapPoints);
+    prefault(kObservations);
+    const uint8_t* observations = s[kObservations].data();
+    for (uint64_t i = 0; i < c.map_points; ++i) {
+      observations =
+          ParseMapPoint(mp_bytes + kMapPointRecordSize * i, observations, &map.map_points[i]);
+    }
+  };
+  parse_keyframe_sections({kKeypoints, kDescriptors, kKfPoints, kBow, kFeatureVectors, kGraph});
+  parse_map_points();
+  release(kKeyframes);
+  release(kMapPoints);
+  release(kObservations);
 
   ValidateMapData(map, source);
   if (info != nullptr) *info = h.info;
@@ -554,130 +879,32 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
 // Public functions
 
 std::vector<uint8_t> EncodeMap(const MapData& map) {
-  const MapCounts c = CountMap(map);
-  std::array<uint64_t, kNumSections> size{}, offset{};
-  size[kMeta] = kMetaFixedSize + map.vocabulary.name.size() + map.metadata.size();
-  for (int i = kKeyframes; i < kNumSections; ++i) size[i] = ExpectedSectionSize(i, c);
-  uint64_t payload_size = 0;
-  for (int i = 0; i < kNumSections; ++i) {
-    offset[i] = AlignUp(payload_size, SectionAlignment(i));
-    payload_size = offset[i] + size[i];
-  }
-  payload_size = AlignUp(payload_size, 8);
-
-  std::vector<uint8_t> fields(kTableStart + kSectionEntrySize * kNumSections, 0);
-  Store<uint32_t>(fields.data(), kNumSections);
-  const size_t header_size = kBaseHeaderSize + fields.size();  // A multiple of 8.
-  // One zeroed buffer for the whole file: padding and reserved fields are 0,
-  // so the same map always gives the same bytes.
-  std::vector<uint8_t> file(header_size + payload_size, 0);
-  uint8_t* payload = file.data() + header_size;
-
-  WriteMeta(map, c, payload + offset[kMeta]);
-  uint8_t* kf_out = payload + offset[kKeyframes];
-  uint8_t* kp_out = payload + offset[kKeypoints];
-  uint8_t* desc_out = payload + offset[kDescriptors];
-  uint8_t* ids_out = payload + offset[kKfPoints];
-  uint8_t* bow_out = payload + offset[kBow];
-  uint8_t* group_out = payload + offset[kFeatureVectors];
-  uint8_t* index_out = group_out + kFvGroupSize * c.feature_vector_groups;
-  uint8_t* conn_out = payload + offset[kGraph];
-  uint8_t* loop_out = conn_out + kConnectionSize * c.connections;
-  for (const KeyFrameRecord& kf : map.keyframes) {
-    const size_t n = kf.keypoints.size();
-    if (kf.descriptors.size() != n || kf.map_point_ids.size() != n) {
-      throw std::invalid_argument("EncodeMap: keyframe " + std::to_string(kf.id) +
-                                  ": descriptors / map_point_ids not parallel to keypoints");
-    }
-    Store<uint64_t>(kf_out + 0, kf.id);
-    Store<uint64_t>(kf_out + 8, kf.frame_id);
-    Store<double>(kf_out + 16, kf.timestamp);
-    WritePose(kf.T_cam_world, kf_out + 24);
-    Store<uint64_t>(kf_out + 80, kf.parent);
-    Store<uint32_t>(kf_out + 88, static_cast<uint32_t>(n));
-    Store<uint32_t>(kf_out + 92, static_cast<uint32_t>(kf.bow.size()));
-    Store<uint32_t>(kf_out + 96, static_cast<uint32_t>(kf.feature_vector.size()));
-    Store<uint32_t>(kf_out + 100, static_cast<uint32_t>(kf.connections.size()));
-    Store<uint32_t>(kf_out + 104, static_cast<uint32_t>(kf.loop_edges.size()));
-    kf_out += kKeyframeRecordSize;
-    for (const MapKeypoint& k : kf.keypoints) {
-      WriteKeypoint(k, kp_out);
-      kp_out += kKeypointRecordSize;
-    }
-    if (n > 0) {
-      std::memcpy(desc_out, kf.descriptors.data(), kDescriptorSize * n);
-      std::memcpy(ids_out, kf.map_point_ids.data(), 8 * n);
-    }
-    desc_out += kDescriptorSize * n;
-    ids_out += 8 * n;
-    for (const auto& [word, value] : kf.bow) {
-      Store<uint32_t>(bow_out, word);
-      Store<double>(bow_out + 8, value);
-      bow_out += kBowEntrySize;
-    }
-    for (const auto& [node, list] : kf.feature_vector) {
-      Store<uint32_t>(group_out, node);
-      Store<uint32_t>(group_out + 4, static_cast<uint32_t>(list.size()));
-      group_out += kFvGroupSize;
-      if (!list.empty()) std::memcpy(index_out, list.data(), kFvIndexSize * list.size());
-      index_out += kFvIndexSize * list.size();
-    }
-    for (const auto& [id, weight] : kf.connections) {
-      Store<uint64_t>(conn_out, id);
-      Store<int32_t>(conn_out + 8, weight);
-      conn_out += kConnectionSize;
-    }
-    if (!kf.loop_edges.empty()) {
-      std::memcpy(loop_out, kf.loop_edges.data(), kLoopEdgeSize * kf.loop_edges.size());
-    }
-    loop_out += kLoopEdgeSize * kf.loop_edges.size();
-  }
-  uint8_t* mp_out = payload + offset[kMapPoints];
-  uint8_t* obs_out = payload + offset[kObservations];
-  for (const MapPointRecord& mp : map.map_points) {
-    Store<uint64_t>(mp_out + 0, mp.id);
-    for (int k = 0; k < 3; ++k) {
-      Store<double>(mp_out + 8 + 8 * k, mp.position[k]);
-      Store<double>(mp_out + 32 + 8 * k, mp.normal[k]);
-    }
-    Store<double>(mp_out + 56, mp.min_distance);
-    Store<double>(mp_out + 64, mp.max_distance);
-    std::memcpy(mp_out + 72, mp.descriptor.bytes, kDescriptorSize);
-    Store<int32_t>(mp_out + 104, mp.visible);
-    Store<int32_t>(mp_out + 108, mp.found);
-    Store<uint64_t>(mp_out + 112, mp.reference_keyframe);
-    Store<uint64_t>(mp_out + 120, mp.first_keyframe);
-    Store<uint32_t>(mp_out + 128, static_cast<uint32_t>(mp.observations.size()));
-    mp_out += kMapPointRecordSize;
-    for (const auto& [kf, index] : mp.observations) {
-      Store<uint64_t>(obs_out, kf);
-      Store<uint32_t>(obs_out + 8, index);
-      obs_out += kObservationSize;
-    }
-  }
-
-  for (int i = 0; i < kNumSections; ++i) {
-    uint8_t* e = fields.data() + kTableStart + kSectionEntrySize * i;
-    std::memcpy(e, kSectionNames[i], std::strlen(kSectionNames[i]));
-    Store<uint64_t>(e + 16, offset[i]);
-    Store<uint64_t>(e + 24, size[i]);
-    Store<uint64_t>(e + 32, Checksum64({payload + offset[i], size[i]}));
-  }
-  const std::vector<uint8_t> header =
-      BuildBinaryHeader(kMapFormat, fields, {payload, static_cast<size_t>(payload_size)});
-  if (header.size() != header_size) throw std::logic_error("EncodeMap: header size");
-  std::memcpy(file.data(), header.data(), header_size);
+  const MapLayout layout = LayOut(map);
+  std::vector<uint8_t> file;
+  file.reserve(layout.header_size + layout.payload_size);
+  file.resize(layout.header_size, 0);  // The header, once the checksums are known.
+  const EncodedHeader header = EncodeWith(map, layout, [&](std::span<const uint8_t> bytes) {
+    file.insert(file.end(), bytes.begin(), bytes.end());
+  });
+  std::memcpy(file.data(), header.bytes.data(), header.bytes.size());
   return file;
 }
 
+MapFileInfo WriteMapFileAt(const std::filesystem::path& file, const MapData& map,
+                           const std::string& name) {
+  const MapLayout layout = LayOut(map);
+  FileSink sink(file, name);
+  sink.Skip(layout.header_size);
+  EncodedHeader header =
+      EncodeWith(map, layout, [&](std::span<const uint8_t> bytes) { sink.Append(bytes); });
+  sink.WriteAt(0, header.bytes);
+  sink.Close();
+  return std::move(header.info);
+}
+
 void WriteMapFile(const std::filesystem::path& path, const MapData& map) {
-  const std::vector<uint8_t> bytes = EncodeMap(map);
   AtomicOutput out(path);
-  std::FILE* f = std::fopen(out.temp_path().c_str(), "wb");
-  if (f == nullptr)
-    throw CantCreateError(path.string() + ": cannot create " + out.temp_path().string());
-  const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-  if (std::fclose(f) != 0 || !ok) throw CantCreateError(path.string() + ": write failed");
+  WriteMapFileAt(out.temp_path(), map, path.string());
   out.Commit();
 }
 
@@ -687,11 +914,16 @@ MapFileInfo ReadMapFileInfo(std::span<const uint8_t> file, const std::string& so
 
 MapData ParseMapMeta(std::span<const uint8_t> file, const std::string& source, MapCounts* counts) {
   const ParsedHeader h = ParseHeader(file, source);
-  return ParseMeta(CheckedSection(h, kMeta, source), source, counts);
+  const MapSectionInfo& meta = FindSection(h, kMeta, source);
+  const std::span<const uint8_t> bytes = h.payload.subspan(meta.offset, meta.size);
+  if (Checksum64(bytes) != meta.checksum) {
+    throw DataError(source + ": " + SectionText(kMeta) + ": checksum mismatch (file corrupt)");
+  }
+  return ParseMeta(bytes, source, counts);
 }
 
 MapData ParseMap(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info) {
-  return ParseAll(file, source, info);
+  return ParseAll(file, source, info, nullptr);
 }
 
 MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
@@ -704,7 +936,7 @@ MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
     ReadMapFileInfo(probe.bytes(), path.string());
   }
   const MappedFile file(path, /*populate=*/true);
-  return ParseMap(file.bytes(), path.string(), info);
+  return ParseAll(file.bytes(), path.string(), info, &file);
 }
 
 MapData ReadMapFileReservingHeap(const std::filesystem::path& path, double heap_factor,

@@ -38,8 +38,17 @@ struct MapFileInfo {
 std::vector<uint8_t> EncodeMap(const MapData& map);
 
 // Writes `map` to `path` atomically (AtomicOutput: name.tmp, fsync, rename).
-// Throws CantCreateError naming the path.
+// Throws CantCreateError naming the path. The bytes are EncodeMap's, encoded
+// and written piece by piece (4 MB at a time, each piece's writeback started
+// at once), never held whole in memory.
 void WriteMapFile(const std::filesystem::path& path, const MapData& map);
+
+// The same bytes written to `file` itself (created or truncated), for a
+// caller that owns the AtomicOutput (its Commit fsyncs and renames); errors
+// name `name`, the final path. Returns the header and section table, as
+// ReadMapFileInfo would read them back.
+MapFileInfo WriteMapFileAt(const std::filesystem::path& file, const MapData& map,
+                           const std::string& name);
 
 // Parses a whole file: header, every section's checksum and bounds, the
 // records, then ValidateMapData. Throws DataError naming `source` and the

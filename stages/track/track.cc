@@ -707,19 +707,13 @@ class TrackSession {
         ToMapData(map_, camera_, vocabulary_, options_.vocabulary.filename().string(),
                   bow_levels_up_, DumpJson(metadata));
     ValidateMapData(data, path + " (before saving)");
-    const std::vector<uint8_t> bytes = EncodeMap(data);
-    {
-      std::ofstream out(map_output_->temp_path(), std::ios::binary);
-      out.write(reinterpret_cast<const char*>(bytes.data()),
-                static_cast<std::streamsize>(bytes.size()));
-      out.flush();
-      if (!out) throw CantCreateError(path + ": cannot write");
-    }
-    map_file_bytes_ = bytes.size();
-    saved_identity_ = MapIdentity(ReadMapFileInfo(bytes, path));
+    const MapFileInfo info = WriteMapFileAt(map_output_->temp_path(), data, path);
+    map_file_bytes_ = info.file_size;
+    saved_identity_ = MapIdentity(info);
     map_save_ms_ = MillisecondsSince(save_start);
     spdlog::info("track: map written for {} in {:.1f} ms ({} keyframes, {} map points, {} bytes)",
-                 path, map_save_ms_, data.keyframes.size(), data.map_points.size(), bytes.size());
+                 path, map_save_ms_, data.keyframes.size(), data.map_points.size(),
+                 map_file_bytes_);
   }
 
   // run.json: what ran on what, counts, module statistics, timings, map.

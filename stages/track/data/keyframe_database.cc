@@ -1,62 +1,120 @@
 #include "stages/track/data/keyframe_database.h"
 
 #include <algorithm>
-#include <cassert>
-#include <iterator>
-#include <map>
+#include <cmath>
+#include <cstddef>
+#include <limits>
 
 namespace rrslam {
 
-KeyFrameDatabase::KeyFrameDatabase(const Vocabulary& vocabulary) : vocabulary_(vocabulary) {}
+KeyFrameDatabase::KeyFrameDatabase(const Vocabulary& vocabulary, size_t recent_max)
+    : vocabulary_(vocabulary), recent_max_(recent_max) {}
 
-KeyFrameDatabase::Entry KeyFrameDatabase::MakeEntry(WordId word, KeyFrame* keyframe) {
-  assert(keyframe->id() < (uint64_t{1} << kIdBits) && word < (uint64_t{1} << (64 - kIdBits)));
-  return {(uint64_t{word} << kIdBits) | keyframe->id(), keyframe};
+namespace {
+
+uint64_t Posting(WordId word, uint32_t slot) { return (uint64_t{word} << 32) | slot; }
+WordId WordOf(uint64_t posting) { return static_cast<WordId>(posting >> 32); }
+uint32_t SlotOf(uint64_t posting) { return static_cast<uint32_t>(posting); }
+
+// Merges the sorted `tail` into the sorted `sorted`, in place.
+void MergeInto(std::vector<uint64_t>* sorted, const std::vector<uint64_t>& tail) {
+  const auto middle = static_cast<std::ptrdiff_t>(sorted->size());
+  sorted->insert(sorted->end(), tail.begin(), tail.end());
+  std::inplace_merge(sorted->begin(), sorted->begin() + middle, sorted->end());
+}
+
+}  // namespace
+
+uint32_t KeyFrameDatabase::NewSlot(KeyFrame* keyframe) {
+  const auto slot = static_cast<uint32_t>(slots_.size());
+  slots_.push_back(keyframe);
+  slot_postings_.push_back(static_cast<uint32_t>(keyframe->bow().size()));
+  slot_of_.emplace(keyframe, slot);
+  return slot;
 }
 
 void KeyFrameDatabase::Add(KeyFrame* keyframe) {
-  std::vector<Entry> added;
+  if (slot_of_.count(keyframe) > 0) return;
+  const uint32_t slot = NewSlot(keyframe);
+  std::vector<uint64_t> added;
   added.reserve(keyframe->bow().size());
-  for (const auto& [word, value] : keyframe->bow().entries) {
-    added.push_back(MakeEntry(word, keyframe));  // BoW entries are sorted by word.
-  }
-  std::vector<Entry> merged;
-  merged.reserve(index_.size() + added.size());
-  std::merge(index_.begin(), index_.end(), added.begin(), added.end(), std::back_inserter(merged));
-  merged.erase(std::unique(merged.begin(), merged.end(),
-                           [](const Entry& a, const Entry& b) { return a.key == b.key; }),
-               merged.end());
-  index_ = std::move(merged);
+  for (const auto& [word, value] : keyframe->bow().entries) added.push_back(Posting(word, slot));
+  std::sort(added.begin(), added.end());  // BoW entries are sorted by word already.
+  MergeInto(&recent_, added);
+  if (recent_.size() > recent_max_) MergeRecent();
 }
 
 void KeyFrameDatabase::AddAll(const std::vector<KeyFrame*>& keyframes) {
-  size_t n = index_.size();
-  for (const KeyFrame* kf : keyframes) n += kf->bow().size();
-  index_.reserve(n);
+  std::vector<uint32_t> slots;
   for (KeyFrame* kf : keyframes) {
-    for (const auto& [word, value] : kf->bow().entries) index_.push_back(MakeEntry(word, kf));
+    if (slot_of_.count(kf) == 0) slots.push_back(NewSlot(kf));
   }
-  std::sort(index_.begin(), index_.end());
-  index_.erase(std::unique(index_.begin(), index_.end(),
-                           [](const Entry& a, const Entry& b) { return a.key == b.key; }),
-               index_.end());
+  // Counting sort of the new postings by word (within a word, by slot: the
+  // slots were given in increasing order).
+  WordId words = static_cast<WordId>(vocabulary_.num_words());
+  size_t total = 0;
+  for (uint32_t slot : slots) {
+    for (const auto& [word, value] : slots_[slot]->bow().entries) words = std::max(words, word + 1);
+    total += slots_[slot]->bow().size();
+  }
+  std::vector<size_t> start(size_t{words} + 1, 0);
+  for (uint32_t slot : slots) {
+    for (const auto& [word, value] : slots_[slot]->bow().entries) ++start[word + 1];
+  }
+  for (size_t w = 0; w < words; ++w) start[w + 1] += start[w];
+  std::vector<uint64_t> added(total);
+  for (uint32_t slot : slots) {
+    for (const auto& [word, value] : slots_[slot]->bow().entries) {
+      added[start[word]++] = Posting(word, slot);
+    }
+  }
+  if (base_.empty()) {
+    base_ = std::move(added);
+  } else {
+    MergeInto(&base_, added);
+  }
+}
+
+void KeyFrameDatabase::MergeRecent() {
+  MergeInto(&base_, recent_);
+  recent_.clear();
 }
 
 void KeyFrameDatabase::Erase(const KeyFrame* keyframe) {
-  index_.erase(std::remove_if(index_.begin(), index_.end(),
-                              [keyframe](const Entry& e) { return e.keyframe == keyframe; }),
-               index_.end());
+  const auto it = slot_of_.find(keyframe);
+  if (it == slot_of_.end()) return;
+  slots_[it->second] = nullptr;
+  erased_postings_ += slot_postings_[it->second];
+  slot_of_.erase(it);
+  CompactIfMostlyErased();
 }
 
-void KeyFrameDatabase::Clear() { index_.clear(); }
+void KeyFrameDatabase::CompactIfMostlyErased() {
+  if (erased_postings_ * 4 <= base_.size() + recent_.size()) return;
+  const auto erased = [&](uint64_t posting) { return slots_[SlotOf(posting)] == nullptr; };
+  std::erase_if(base_, erased);
+  std::erase_if(recent_, erased);
+  erased_postings_ = 0;
+}
+
+void KeyFrameDatabase::Clear() {
+  base_.clear();
+  recent_.clear();
+  slots_.clear();
+  slot_postings_.clear();
+  slot_of_.clear();
+  erased_postings_ = 0;
+}
 
 std::vector<KeyFrame*> KeyFrameDatabase::KeyFramesWithWord(WordId word) const {
   std::vector<KeyFrame*> out;
-  const uint64_t first = uint64_t{word} << kIdBits;
-  for (auto it = std::lower_bound(index_.begin(), index_.end(), Entry{first, nullptr});
-       it != index_.end() && (it->key >> kIdBits) == word; ++it) {
-    out.push_back(it->keyframe);
+  for (const std::vector<uint64_t>* postings : {&base_, &recent_}) {
+    auto it = std::lower_bound(postings->begin(), postings->end(), Posting(word, 0));
+    for (; it != postings->end() && WordOf(*it) == word; ++it) {
+      if (KeyFrame* kf = slots_[SlotOf(*it)]) out.push_back(kf);
+    }
   }
+  std::sort(out.begin(), out.end(), IdLess());
   return out;
 }
 
@@ -70,9 +128,22 @@ std::vector<KeyFrame*> KeyFrameDatabase::DetectLoopCandidates(const KeyFrame& ke
   return DetectCandidates(keyframe.bow(), &keyframe, min_score);
 }
 
-std::vector<KeyFrame*> KeyFrameDatabase::DetectCandidates(const BowVector& bow,
-                                                          const KeyFrame* query,
-                                                          double min_score) const {
+std::vector<KeyFrameDatabase::Candidate> KeyFrameDatabase::SharingWords(
+    const BowVector& bow, const KeyFrame* query) const {
+  // Shared words per slot, counted over the query's postings.
+  std::vector<int> shared(slots_.size(), 0);
+  std::vector<uint32_t> touched;
+  for (const std::vector<uint64_t>* postings : {&base_, &recent_}) {
+    // The query's words are sorted, so each search starts where the last ended.
+    auto from = postings->begin();
+    for (const auto& [word, value] : bow.entries) {
+      from = std::lower_bound(from, postings->end(), Posting(word, 0));
+      for (; from != postings->end() && WordOf(*from) == word; ++from) {
+        const uint32_t slot = SlotOf(*from);
+        if (shared[slot]++ == 0) touched.push_back(slot);
+      }
+    }
+  }
   // A loop query excludes itself and the keyframes connected to it.
   std::vector<KeyFrameId> excluded;
   if (query != nullptr) {
@@ -80,41 +151,46 @@ std::vector<KeyFrame*> KeyFrameDatabase::DetectCandidates(const BowVector& bow,
     for (const KeyFrame::Connection& c : query->connections()) excluded.push_back(c.keyframe->id());
     std::sort(excluded.begin(), excluded.end());
   }
-  // Shared words per keyframe, by keyframe id.
-  struct Candidate {
-    KeyFrame* keyframe;
-    int shared_words = 0;
-    double score = 0;
-  };
-  std::map<KeyFrameId, Candidate> candidates;
-  // The query's words are sorted, so each search starts where the last ended.
-  auto from = index_.begin();
-  for (const auto& [word, value] : bow.entries) {
-    from = std::lower_bound(from, index_.end(), Entry{uint64_t{word} << kIdBits, nullptr});
-    for (; from != index_.end() && (from->key >> kIdBits) == word; ++from) {
-      KeyFrame* keyframe = from->keyframe;
-      if (keyframe->bad() || std::binary_search(excluded.begin(), excluded.end(), keyframe->id())) {
-        continue;
-      }
-      auto [it, inserted] = candidates.try_emplace(keyframe->id(), Candidate{keyframe});
-      ++it->second.shared_words;
+  std::vector<Candidate> out;
+  for (const uint32_t slot : touched) {
+    KeyFrame* keyframe = slots_[slot];
+    if (keyframe == nullptr || keyframe->bad() ||
+        std::binary_search(excluded.begin(), excluded.end(), keyframe->id())) {
+      continue;
     }
+    out.push_back({keyframe, slot, shared[slot]});
   }
+  std::sort(out.begin(), out.end(), [](const Candidate& a, const Candidate& b) {
+    return a.keyframe->id() < b.keyframe->id();
+  });
+  return out;
+}
+
+std::vector<KeyFrame*> KeyFrameDatabase::DetectCandidates(const BowVector& bow,
+                                                          const KeyFrame* query,
+                                                          double min_score) const {
+  const std::vector<Candidate> candidates = SharingWords(bow, query);
   if (candidates.empty()) return {};
 
   int max_shared = 0;
-  for (const auto& [id, c] : candidates) max_shared = std::max(max_shared, c.shared_words);
+  for (const Candidate& c : candidates) max_shared = std::max(max_shared, c.shared_words);
   const int min_shared = static_cast<int>(0.8f * max_shared);
 
-  // Score the keyframes sharing enough words; the others drop out.
-  std::map<KeyFrameId, Candidate> scored;
-  for (auto& [id, c] : candidates) {
+  // Score the keyframes sharing enough words (by slot; NaN: not scored); the
+  // others drop out.
+  std::vector<double> score(slots_.size(), std::numeric_limits<double>::quiet_NaN());
+  std::vector<const Candidate*> scored;
+  for (const Candidate& c : candidates) {
     if (c.shared_words > min_shared) {
-      c.score = vocabulary_.Score(bow, c.keyframe->bow());
-      scored.emplace(id, c);
+      score[c.slot] = vocabulary_.Score(bow, c.keyframe->bow());
+      scored.push_back(&c);
     }
   }
   if (scored.empty()) return {};
+  const auto score_of = [&](const KeyFrame* keyframe) {
+    const auto it = slot_of_.find(keyframe);
+    return it == slot_of_.end() ? std::numeric_limits<double>::quiet_NaN() : score[it->second];
+  };
 
   // Group each candidate scoring at least min_score with its best covisible
   // keyframes (whose scores count whatever they are).
@@ -124,17 +200,18 @@ std::vector<KeyFrame*> KeyFrameDatabase::DetectCandidates(const BowVector& bow,
   };
   std::vector<Group> groups;
   double best_accumulated = 0;
-  for (const auto& [id, c] : scored) {
-    if (c.score < min_score) continue;
-    double accumulated = c.score;
-    double best_score = c.score;
-    KeyFrame* best = c.keyframe;
-    for (KeyFrame* neighbour : c.keyframe->BestCovisible(10)) {
-      auto it = scored.find(neighbour->id());
-      if (it == scored.end()) continue;
-      accumulated += it->second.score;
-      if (it->second.score > best_score) {
-        best_score = it->second.score;
+  for (const Candidate* c : scored) {
+    const double own = score[c->slot];
+    if (own < min_score) continue;
+    double accumulated = own;
+    double best_score = own;
+    KeyFrame* best = c->keyframe;
+    for (KeyFrame* neighbour : c->keyframe->BestCovisible(10)) {
+      const double s = score_of(neighbour);
+      if (std::isnan(s)) continue;
+      accumulated += s;
+      if (s > best_score) {
+        best_score = s;
         best = neighbour;
       }
     }

@@ -4,11 +4,13 @@
 // DetectLoopCandidates).
 //
 // The local mapper adds every keyframe it inserts and removes culled ones.
-// Lists are kept ordered by keyframe id, so queries are deterministic.
+// Results are ordered by keyframe id and do not depend on the order in
+// which keyframes were added: queries are deterministic.
 // Thread-safety: none of its own; use it under Map::mutex().
 #pragma once
 
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "stages/track/data/keyframe.h"
@@ -18,20 +20,31 @@ namespace rrslam {
 
 class KeyFrameDatabase {
  public:
-  // `vocabulary` must outlive the database.
-  explicit KeyFrameDatabase(const Vocabulary& vocabulary);
+  // Postings (below) added one keyframe at a time before they are merged into
+  // the main array: 2 MB, about 250 keyframes of 1000 words.
+  static constexpr size_t kRecentMax = size_t{1} << 18;
+
+  // `vocabulary` must outlive the database. `recent_max`: postings added one
+  // keyframe at a time that are merged into the main array (tests make it
+  // small to exercise the merge).
+  explicit KeyFrameDatabase(const Vocabulary& vocabulary, size_t recent_max = kRecentMax);
 
   // Indexes a keyframe by the words of its BoW vector (which must be
-  // computed). Linear in the index's size (a merge).
+  // computed); a keyframe already indexed is left as it is. Amortized time
+  // in proportion to its words (see "Postings" below), not to the index.
   void Add(KeyFrame* keyframe);
-  // Indexes many keyframes at once (a map being loaded): one sort.
+  // Indexes many keyframes at once (a map being loaded): one counting sort by
+  // word, linear in their words plus the vocabulary's size.
   void AddAll(const std::vector<KeyFrame*>& keyframes);
-  // Removes a keyframe from every list it is in.
+  // Removes a keyframe from every list it is in (in constant time; its
+  // postings are dropped with the next compaction).
   void Erase(const KeyFrame* keyframe);
   void Clear();
 
   // Keyframes whose lists hold word `word`, by id (for tests and tools).
   std::vector<KeyFrame*> KeyFramesWithWord(WordId word) const;
+  // Keyframes indexed (erased ones not counted).
+  size_t size() const { return slot_of_.size(); }
 
   // Candidate keyframes to relocalize a frame with BoW vector `bow`:
   //  1. keyframes sharing at least one word; keep those sharing at least 80% of
@@ -42,6 +55,8 @@ class KeyFrameDatabase {
   //     of the group;
   //  4. return the best keyframe of every group whose accumulated score is at
   //     least 75% of the best accumulated score, each once, ordered by id.
+  // Time: the query's postings (one counter per indexed keyframe, no search
+  // structure), then the kept keyframes' scores.
   std::vector<KeyFrame*> DetectRelocalizationCandidates(const BowVector& bow) const;
 
   // Candidate keyframes to close a loop with `keyframe` (ORB-SLAM2's
@@ -52,26 +67,35 @@ class KeyFrameDatabase {
   std::vector<KeyFrame*> DetectLoopCandidates(const KeyFrame& keyframe, double min_score) const;
 
  private:
+  struct Candidate {
+    KeyFrame* keyframe;
+    uint32_t slot;
+    int shared_words;
+  };
+  std::vector<Candidate> SharingWords(const BowVector& bow, const KeyFrame* query) const;
   std::vector<KeyFrame*> DetectCandidates(const BowVector& bow, const KeyFrame* query,
                                           double min_score) const;
+  uint32_t NewSlot(KeyFrame* keyframe);
+  void MergeRecent();
+  void CompactIfMostlyErased();
 
   const Vocabulary& vocabulary_;
-  // The inverted index as one array of (word, keyframe) entries sorted by
-  // word, then keyframe id: a word's list is an equal range. ORB-SLAM2 keeps
-  // a list per vocabulary word; that table alone costs ~20 ms to allocate for
-  // a 540k-word vocabulary at every start-up, and filling per-word lists
-  // (or hash-map nodes) for a loaded map ~20 ms more, where one sort of this
-  // array takes a few.
-  // Keyframe ids take the low kIdBits bits of a key, word ids (< 2^27,
-  // vocabulary_format.h) the others.
-  static constexpr int kIdBits = 37;
-  struct Entry {
-    uint64_t key;  // word << kIdBits | keyframe id.
-    KeyFrame* keyframe;
-    bool operator<(const Entry& o) const { return key < o.key; }
-  };
-  static Entry MakeEntry(WordId word, KeyFrame* keyframe);
-  std::vector<Entry> index_;
+  const size_t recent_max_;
+
+  // Postings: every (word, keyframe) pair as one key, word << 32 | slot,
+  // where a slot numbers an indexed keyframe (slots_). A word's list is an
+  // equal range of a sorted array. ORB-SLAM2 keeps a list per vocabulary word;
+  // that table alone costs ~20 ms to allocate for a 540k-word vocabulary at
+  // every start-up. `base_` holds most postings; `recent_` those added one
+  // keyframe at a time since the last merge, kept under recent_max_ entries
+  // so that an Add merges into a small array, and merged into `base_` (in
+  // place) when it outgrows that. Postings of erased keyframes stay until the
+  // arrays are compacted, when they are a quarter of all.
+  std::vector<uint64_t> base_, recent_;
+  std::vector<KeyFrame*> slots_;                           // Slot -> keyframe; null once erased.
+  std::vector<uint32_t> slot_postings_;                    // Slot -> its number of postings.
+  std::unordered_map<const KeyFrame*, uint32_t> slot_of_;  // Indexed keyframes.
+  size_t erased_postings_ = 0;                             // Postings of erased slots still stored.
 };
 
 }  // namespace rrslam

@@ -151,5 +151,89 @@ TEST_F(LoopCandidatesTest, AMinScoreAboveEveryScoreLeavesNoCandidate) {
   EXPECT_TRUE(database_.DetectLoopCandidates(*a, 1.01).empty());
 }
 
+// ORB-SLAM2's relocalization candidates by a scan of every keyframe (no
+// inverted file): shared words by set intersection; no covisibility here,
+// so every kept keyframe is its own group.
+std::vector<KeyFrame*> BruteForceCandidates(const std::vector<KeyFrame*>& live,
+                                            const BowVector& bow, const Vocabulary& vocabulary) {
+  std::vector<std::pair<KeyFrame*, int>> sharing;
+  for (KeyFrame* kf : live) {
+    int shared = 0;
+    for (const auto& [word, value] : bow.entries) {
+      for (const auto& [w, v] : kf->bow().entries) shared += w == word;
+    }
+    if (shared > 0) sharing.emplace_back(kf, shared);
+  }
+  int max_shared = 0;
+  for (const auto& [kf, n] : sharing) max_shared = std::max(max_shared, n);
+  const int min_shared = static_cast<int>(0.8f * max_shared);
+  std::vector<std::pair<KeyFrame*, double>> scored;
+  double best = 0;
+  for (const auto& [kf, n] : sharing) {
+    if (n <= min_shared) continue;
+    scored.emplace_back(kf, vocabulary.Score(bow, kf->bow()));
+    best = std::max(best, scored.back().second);
+  }
+  std::vector<KeyFrame*> out;
+  for (const auto& [kf, score] : scored) {
+    if (score >= 0.75 * best) out.push_back(kf);
+  }
+  std::sort(out.begin(), out.end(), IdLess());
+  return out;
+}
+
+BowVector RandomBow(std::mt19937& rng, int words) {
+  std::vector<WordId> chosen = Range(0, 99);
+  std::shuffle(chosen.begin(), chosen.end(), rng);
+  chosen.resize(words);
+  std::sort(chosen.begin(), chosen.end());
+  return Bow(chosen);
+}
+
+// The inverted file (loaded at once, then grown and culled one keyframe at a
+// time, with merges and compactions along the way) returns what a scan of
+// every live keyframe returns, for many random queries.
+TEST(KeyFrameDatabaseScan, InvertedFileGivesTheBruteForceCandidates) {
+  std::mt19937 rng(11);
+  const SensorModel sensor = TestSensor();
+  const Vocabulary vocabulary = HundredWordVocabulary();
+  Map map;
+  KeyFrameDatabase database(vocabulary, /*recent_max=*/64);
+  std::vector<KeyFrame*> live;
+  const auto make = [&] {
+    KeyFrame* kf = MakeGridKeyFrame(&map, sensor, 4, Rigid3d::Identity(), rng);
+    kf->SetBow(RandomBow(rng, 5 + static_cast<int>(rng() % 20)), {});
+    return kf;
+  };
+  for (int i = 0; i < 150; ++i) live.push_back(make());
+  std::vector<KeyFrame*> shuffled = live;
+  std::shuffle(shuffled.begin(), shuffled.end(), rng);
+  database.AddAll(shuffled);
+  for (int step = 0; step < 300; ++step) {
+    if (rng() % 3 == 0 && !live.empty()) {
+      const size_t i = rng() % live.size();
+      database.Erase(live[i]);
+      live.erase(live.begin() + static_cast<std::ptrdiff_t>(i));
+    } else {
+      live.push_back(make());
+      database.Add(live.back());
+    }
+    const BowVector query = RandomBow(rng, 3 + static_cast<int>(rng() % 30));
+    ASSERT_EQ(database.DetectRelocalizationCandidates(query),
+              BruteForceCandidates(live, query, vocabulary))
+        << "step " << step;
+    const WordId word = static_cast<WordId>(rng() % 100);
+    std::vector<KeyFrame*> with_word;
+    for (KeyFrame* kf : live) {
+      for (const auto& [w, v] : kf->bow().entries) {
+        if (w == word) with_word.push_back(kf);
+      }
+    }
+    std::sort(with_word.begin(), with_word.end(), IdLess());
+    ASSERT_EQ(database.KeyFramesWithWord(word), with_word) << "step " << step;
+  }
+  EXPECT_EQ(database.size(), live.size());
+}
+
 }  // namespace
 }  // namespace rrslam

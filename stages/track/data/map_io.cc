@@ -256,6 +256,11 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
       fv.entries = std::move(r.feature_vector);
       frame.SetBow(std::move(bow), std::move(fv));
     }
+    // Freed now, not with `data`: the heap gives their memory to the next
+    // keyframes' frames instead of fresh pages (a big map's load is mostly
+    // first touches of memory).
+    r.keypoints = {};
+    r.map_point_ids = {};
   });
   std::vector<KeyFrame*> keyframes;
   keyframes.reserve(data.keyframes.size());
@@ -268,7 +273,7 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
   // Map points with their observations (both sides).
   std::vector<MapPoint*> points;
   points.reserve(data.map_points.size());
-  for (const MapPointRecord& r : data.map_points) {
+  for (MapPointRecord& r : data.map_points) {
     MapPoint* p = map->CreateMapPointWithId(
         r.id, Eigen::Vector3d(r.position[0], r.position[1], r.position[2]),
         keyframe(r.reference_keyframe));
@@ -279,6 +284,7 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
     for (const auto& [kf_id, index] : r.observations) {
       map->AddObservation(p, keyframe(kf_id), index);
     }
+    r.observations = {};  // As the keypoints above.
     points.push_back(p);
   }
   map->ReserveIds(data.next_keyframe_id, data.next_map_point_id);

@@ -92,11 +92,7 @@ void MapPointIndex::Build(const std::vector<MapPoint*>& points) {
     std::shuffle(all.begin(), all.end(), rng);
     table.bits.assign(all.begin(), all.begin() + options_.key_bits);
     // Rows sorted by key (then row), each key's rows one bucket.
-    std::vector<std::pair<uint32_t, uint32_t>> keyed(descriptors_.size());
-    for (size_t r = 0; r < descriptors_.size(); ++r) {
-      keyed[r] = {table.Key(descriptors_[r]), static_cast<uint32_t>(r)};
-    }
-    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::pair<uint32_t, uint32_t>> keyed = SortedByKey(table);
     size_t capacity = 2;
     while (capacity < 2 * keyed.size()) capacity *= 2;
     table.slots.assign(capacity, {});
@@ -107,6 +103,25 @@ void MapPointIndex::Build(const std::vector<MapPoint*>& points) {
       if (slot.count++ == 0) slot.offset = static_cast<uint32_t>(i);
     }
   }
+}
+
+std::vector<std::pair<uint32_t, uint32_t>> MapPointIndex::SortedByKey(const Table& table) const {
+  const size_t n = descriptors_.size();
+  std::vector<uint32_t> keys(n);
+  for (size_t r = 0; r < n; ++r) keys[r] = table.Key(descriptors_[r]);
+  std::vector<std::pair<uint32_t, uint32_t>> keyed(n);
+  if (options_.key_bits > kCountingSortMaxBits) {
+    for (size_t r = 0; r < n; ++r) keyed[r] = {keys[r], static_cast<uint32_t>(r)};
+    std::sort(keyed.begin(), keyed.end());
+    return keyed;
+  }
+  // A counting sort by key: rows stay in increasing order within a key, as
+  // the pairs' sort above orders them, in time linear in rows and keys.
+  std::vector<uint32_t> start((size_t{1} << options_.key_bits) + 1, 0);
+  for (const uint32_t key : keys) ++start[key + 1];
+  for (size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+  for (size_t r = 0; r < n; ++r) keyed[start[keys[r]]++] = {keys[r], static_cast<uint32_t>(r)};
+  return keyed;
 }
 
 bool MapPointIndex::IsCurrent(const Map& map) const {
@@ -127,15 +142,20 @@ std::vector<DescriptorNeighbours> MapPointIndex::Search(
     auto consider = [&](uint32_t row) {
       if (seen[row] == stamp) return;
       seen[row] = stamp;
+      const int d = HammingDistance(query, ToWords(descriptors_[row]));
+      const bool first = d < n.first_distance || (d == n.first_distance && n.first == nullptr);
+      if (!first && !(d < n.second_distance || (d == n.second_distance && n.second == nullptr))) {
+        return;
+      }
+      // Only now the point itself (a cache miss per row on a big map).
       MapPoint* p = points_[row];
       if (p->bad()) return;
-      const int d = HammingDistance(query, ToWords(descriptors_[row]));
-      if (d < n.first_distance || (d == n.first_distance && n.first == nullptr)) {
+      if (first) {
         n.second = n.first;
         n.second_distance = n.first_distance;
         n.first = p;
         n.first_distance = d;
-      } else if (d < n.second_distance || (d == n.second_distance && n.second == nullptr)) {
+      } else {
         n.second = p;
         n.second_distance = d;
       }

@@ -21,6 +21,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/orb_descriptor.h"
@@ -73,6 +74,10 @@ class MapPointIndex {
 
  private:
   struct Table;
+  // Keys of up to this many bits are sorted by counting (2^bits counters).
+  static constexpr int kCountingSortMaxBits = 24;
+  // (key, row) of every row in `table`, sorted.
+  std::vector<std::pair<uint32_t, uint32_t>> SortedByKey(const Table& table) const;
   MapPointIndexOptions options_;
   std::vector<MapPoint*> points_;           // One row per point.
   std::vector<OrbDescriptor> descriptors_;  // Parallel to points_.
