@@ -12,8 +12,8 @@
 // writes it (save time: encode, write, fsync, rename, in process), its file
 // size and bytes per keyframe, loads it in process (ReadMapFile: every
 // checksum and relation; median of 3), and runs `BIN verify` as a child
-// process (the whole process to a loaded, verified map: wall time and peak
-// memory). With --track, cold starts of `rrslam-track --load-map
+// process three times (the whole process to a loaded, verified map: median
+// wall time and the largest peak memory). With --track, cold starts of `rrslam-track --load-map
 // --localization-only` on the base map and on each composed map (first pose
 // after process start, every relocalization attempt, tracking median, peak
 // memory; copy 0 of a composed map is the base map, so the frames relocalize
@@ -245,8 +245,22 @@ Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Voc
   for (int r = 0; r < 3; ++r) {
     loads.push_back(SecondsOf([&] { rrslam::ReadMapFile(path); }));
   }
-  const ChildRun verify =
-      RunChild({o.mapstore.string(), "--quiet", "verify", path.string()}, o.work / "verify.txt");
+  // Three whole processes: on a virtual machine the first touches of fresh
+  // memory, most of a big load, vary by 2x from run to run.
+  std::vector<double> verify_s;
+  double peak_mb = 0;
+  bool verified = true;
+  for (int r = 0; r < 3; ++r) {
+    const ChildRun run =
+        RunChild({o.mapstore.string(), "--quiet", "verify", path.string()}, o.work / "verify.txt");
+    verified = verified && run.exit_code == 0;
+    verify_s.push_back(run.wall_s);
+    peak_mb = std::max(peak_mb, run.max_rss_mb);
+  }
+  const double verify_median = Median(verify_s);
+  const std::string spread =
+      rrslam::Format("%.2f", *std::min_element(verify_s.begin(), verify_s.end())) + "-" +
+      rrslam::Format("%.2f", *std::max_element(verify_s.begin(), verify_s.end())) + " s";
   const bool big = keyframes >= 10000;
   const auto goal = [&](const std::string& text) { return big ? text : std::string("-"); };
   report->Note(s, "composed in " + rrslam::Format("%.1f", compose_s) + " s");
@@ -256,19 +270,16 @@ Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Voc
   report->Add(
       s, {"save (encode, write, fsync, rename)", save_s, "s", goal("<= 2 s"), !big || save_s <= 2});
   report->Add(s, {"load alone, in process (median of 3)", Median(loads), "s", "-", true});
-  report->Add(s, {"verify, whole process (= load with every check)", verify.wall_s, "s",
-                  goal("<= 1 s"), verify.exit_code == 0 && (!big || verify.wall_s <= 1)});
-  report->Add(s, {"  as the whole-process load", verify.wall_s, "s", goal("<= 1.5 s"),
-                  verify.exit_code == 0 && (!big || verify.wall_s <= 1.5)});
-  const double ratio = verify.max_rss_mb * 1e6 / bytes;
-  report->Add(s, {"load peak memory / file size", ratio, "x", goal("<= 2 x"), !big || ratio <= 2});
-  report->Add(s, {"load peak memory", verify.max_rss_mb, "MB", "-", true});
-  Row row{static_cast<double>(keyframes),
-          save_s,
-          Median(loads),
-          verify.wall_s,
-          bytes / 1e6,
-          verify.max_rss_mb};
+  report->Add(s, {"verify, whole process (= load with every check; median of 3, " + spread + ")",
+                  verify_median, "s", goal("<= 1 s"), verified && (!big || verify_median <= 1)});
+  report->Add(s, {"  as the whole-process load", verify_median, "s", goal("<= 1.5 s"),
+                  verified && (!big || verify_median <= 1.5)});
+  const double ratio = peak_mb * 1e6 / bytes;
+  report->Add(s, {"load peak memory / file size (largest of 3)", ratio, "x", goal("<= 2 x"),
+                  !big || ratio <= 2});
+  report->Add(s, {"load peak memory", peak_mb, "MB", "-", true});
+  Row row{
+      static_cast<double>(keyframes), save_s, Median(loads), verify_median, bytes / 1e6, peak_mb};
   if (!o.track.empty()) {
     AddColdStarts(RunColdStarts(o, path), s, big, base_tracking_ms, report, &row);
   }
