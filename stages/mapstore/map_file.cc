@@ -709,6 +709,20 @@ void CopyEntries(const uint8_t** p, uint32_t count, size_t size, std::vector<T>*
   *p += size * count;
 }
 
+// Reads `count` records of `size` bytes at `*p`, each a First at byte 0 and
+// a Second at byte 8 (bag-of-words entries, connections), and moves `*p`
+// past them.
+template <typename First, typename Second>
+void ParsePairs(const uint8_t** p, uint32_t count, size_t size,
+                std::vector<std::pair<First, Second>>* out) {
+  out->resize(count);
+  for (auto& [first, second] : *out) {
+    first = Load<First>(*p);
+    second = Load<Second>(*p + 8);
+    *p += size;
+  }
+}
+
 // Fills one section's entries of every keyframe, in keyframe order (the
 // counts were checked against the section's size before).
 void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const MapCounts& c,
@@ -730,11 +744,7 @@ void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const Map
         CopyEntries(&p, n.keypoints, 8, &kf.map_point_ids);
         break;
       case kBow:
-        kf.bow.resize(n.bow);
-        for (auto& entry : kf.bow) {
-          entry = {Load<uint32_t>(p), Load<double>(p + 8)};
-          p += kBowEntrySize;
-        }
+        ParsePairs(&p, n.bow, kBowEntrySize, &kf.bow);
         break;
       case kFeatureVectors:
         kf.feature_vector.resize(n.groups);
@@ -745,11 +755,7 @@ void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const Map
         }
         break;
       case kGraph:
-        kf.connections.resize(n.connections);
-        for (auto& entry : kf.connections) {
-          entry = {Load<uint64_t>(p), Load<int32_t>(p + 8)};
-          p += kConnectionSize;
-        }
+        ParsePairs(&p, n.connections, kConnectionSize, &kf.connections);
         CopyEntries(&loops, n.loops, kLoopEdgeSize, &kf.loop_edges);
         break;
     }
