@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <sstream>
 
@@ -191,6 +192,34 @@ TEST(MapFile, EmptyMapRoundTrip) {
   map.metadata = "{}";
   const MapData back = ParseMap(EncodeMap(map), "empty.rrm");
   ExpectMapsEqual(map, back);
+}
+
+// The streamed file holds EncodeMap's bytes, across many 4 MB pieces, and
+// the header it reports is the one a reader finds.
+TEST(MapFile, StreamedFileIsTheEncodedBytes) {
+  TempDir dir;
+  TestMapOptions options;
+  options.keyframes = 150;
+  options.keypoints = 1000;
+  options.map_points = 15000;
+  const MapData map = MakeTestMap(5, options);
+  const MapFileInfo written = WriteMapFileAt(dir / "map.rrm", map, "map.rrm");
+  std::ifstream in(dir / "map.rrm", std::ios::binary);
+  const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+  const std::vector<uint8_t> encoded = EncodeMap(map);
+  ASSERT_GT(encoded.size(), size_t{12} << 20);
+  EXPECT_TRUE(bytes == encoded);
+  const MapFileInfo read = ReadMapFileInfo(bytes, "map.rrm");
+  EXPECT_EQ(written.major, read.major);
+  EXPECT_EQ(written.minor, read.minor);
+  EXPECT_EQ(written.file_size, read.file_size);
+  ASSERT_EQ(written.sections.size(), read.sections.size());
+  for (size_t i = 0; i < read.sections.size(); ++i) {
+    EXPECT_EQ(written.sections[i].name, read.sections[i].name);
+    EXPECT_EQ(written.sections[i].offset, read.sections[i].offset);
+    EXPECT_EQ(written.sections[i].size, read.sections[i].size);
+    EXPECT_EQ(written.sections[i].checksum, read.sections[i].checksum);
+  }
 }
 
 TEST(MapFile, WriteReadFile) {
