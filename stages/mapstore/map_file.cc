@@ -288,7 +288,10 @@ class PayloadWriter {
     }
   }
   void Zeros(uint64_t size) {
-    for (; size > 0; --size) *Record(1) = 0;
+    static constexpr uint8_t kZeros[64] = {};
+    for (; size > 0; size -= std::min<uint64_t>(size, sizeof kZeros)) {
+      Bytes(kZeros, std::min<uint64_t>(size, sizeof kZeros));
+    }
   }
   // Pads to `payload_size`, hands over the rest; the payload's checksum.
   uint64_t Finish(uint64_t payload_size) {
@@ -568,22 +571,23 @@ const MapSectionInfo& FindSection(const ParsedHeader& h, int section, const std:
   return *found;
 }
 
+// A known section's bytes, checked against its checksum.
+std::span<const uint8_t> CheckedSection(const ParsedHeader& h, int section,
+                                        const std::string& source) {
+  const MapSectionInfo& found = FindSection(h, section, source);
+  const std::span<const uint8_t> bytes = h.payload.subspan(found.offset, found.size);
+  if (Checksum64(bytes) != found.checksum) {
+    throw DataError(source + ": " + SectionText(section) + ": checksum mismatch (file corrupt)");
+  }
+  return bytes;
+}
+
 // The known sections, each checked against its checksum, then the whole
 // payload against its own (which catches corruption between sections and in
 // sections this version does not know).
 Sections CheckedSections(const ParsedHeader& h, const std::string& source) {
   Sections s;
-  std::array<uint64_t, kNumSections> expected{};
-  for (int i = 0; i < kNumSections; ++i) {
-    const MapSectionInfo& section = FindSection(h, i, source);
-    s[i] = h.payload.subspan(section.offset, section.size);
-    expected[i] = section.checksum;
-  }
-  for (int i = 0; i < kNumSections; ++i) {
-    if (Checksum64(s[i]) != expected[i]) {
-      throw DataError(source + ": " + SectionText(i) + ": checksum mismatch (file corrupt)");
-    }
-  }
+  for (int i = 0; i < kNumSections; ++i) s[i] = CheckedSection(h, i, source);
   if (Checksum64(h.payload) != h.payload_checksum) {
     throw DataError(source +
                     ": payload checksum mismatch outside the known sections (file corrupt)");
@@ -787,15 +791,10 @@ const uint8_t* ParseMapPoint(const uint8_t* r, const uint8_t* observations, MapP
   return observations + kObservationSize * n;
 }
 
-// `mapping`, when non-null, is the mapped file that `file` is.
-MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info,
-                 const MappedFile* mapping) {
-  const ParsedHeader h = ParseHeader(file, source);
-  const Sections s = CheckedSections(h, source);
-  MapCounts c;
-  MapData map = ParseMeta(s[kMeta], source, &c);
-  // Every count is checked against the size of its section before anything is
-  // allocated: a corrupt count cannot cause a huge allocation.
+// Every count checked against the size of its section, then the per-record
+// counts against the totals, before anything is allocated: a corrupt count
+// cannot cause a huge allocation.
+void CheckCounts(const Sections& s, const MapCounts& c, const std::string& source) {
   for (int i = kKeyframes; i < kNumSections; ++i) {
     const uint64_t expected = ExpectedSectionSize(i, c);
     if (s[i].size() != expected) {
@@ -807,13 +806,10 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
                       " (truncated or corrupt)");
     }
   }
-
-  // Per-keyframe counts, summed (in 64 bits: each is 32-bit) and compared with
-  // the totals before any per-keyframe array is filled.
-  const uint8_t* kf_bytes = s[kKeyframes].data();
+  // Summed in 64 bits (each count is 32-bit).
   uint64_t sum[5] = {0, 0, 0, 0, 0};
   for (uint64_t i = 0; i < c.keyframes; ++i) {
-    const KeyframeCounts n = CountsOf(kf_bytes + kKeyframeRecordSize * i);
+    const KeyframeCounts n = CountsOf(s[kKeyframes].data() + kKeyframeRecordSize * i);
     const uint32_t each[5] = {n.keypoints, n.bow, n.groups, n.connections, n.loops};
     for (int k = 0; k < 5; ++k) sum[k] += each[k];
   }
@@ -822,58 +818,64 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
   CheckTotal(sum[2], c.feature_vector_groups, "feature vector groups", "keyframes", source);
   CheckTotal(sum[3], c.connections, "connections", "keyframes", source);
   CheckTotal(sum[4], c.loop_edges, "loop edges", "keyframes", source);
-  const uint8_t* groups = s[kFeatureVectors].data();
   uint64_t sum_indices = 0;
   for (uint64_t g = 0; g < c.feature_vector_groups; ++g) {
-    sum_indices += Load<uint32_t>(groups + kFvGroupSize * g + 4);
+    sum_indices += Load<uint32_t>(s[kFeatureVectors].data() + kFvGroupSize * g + 4);
   }
   CheckTotal(sum_indices, c.feature_vector_indices, "feature vector indices", "feature_vectors",
              source);
-  const uint8_t* mp_bytes = s[kMapPoints].data();
   uint64_t sum_observations = 0;
   for (uint64_t i = 0; i < c.map_points; ++i) {
-    sum_observations += Load<uint32_t>(mp_bytes + kMapPointRecordSize * i + 128);
+    sum_observations += Load<uint32_t>(s[kMapPoints].data() + kMapPointRecordSize * i + 128);
   }
   CheckTotal(sum_observations, c.observations, "observations", "map_points", source);
+}
 
-  // Records, one section at a time (a mapped file's section is dropped from
-  // memory once parsed: the records and one section are resident at once).
-  // Every read below stays within its section by the checks above.
+// The records, one section at a time; a mapped file's section is dropped
+// from memory once parsed (`mapping`, when non-null, holds the sections), so
+// the records and one section are resident at once. Every read stays within
+// its section by CheckCounts.
+void ParseRecords(const Sections& s, const MapCounts& c, const MappedFile* mapping, MapData* map) {
   const auto prefault = [&](int i) {
     if (mapping != nullptr) mapping->Prefault(s[i]);
   };
   const auto release = [&](int i) {
     if (mapping != nullptr) mapping->Release(s[i]);
   };
-  if (mapping != nullptr) mapping->Release(h.payload);  // Read once by the checksums.
-  map.keyframes.resize(c.keyframes);
+  const uint8_t* table = s[kKeyframes].data();
   prefault(kKeyframes);
+  map->keyframes.resize(c.keyframes);
   for (uint64_t i = 0; i < c.keyframes; ++i) {
-    ParseKeyframeRecord(kf_bytes + kKeyframeRecordSize * i, &map.keyframes[i]);
+    ParseKeyframeRecord(table + kKeyframeRecordSize * i, &map->keyframes[i]);
   }
-  const auto parse_keyframe_sections = [&](std::initializer_list<int> sections) {
-    for (const int i : sections) {
-      prefault(i);
-      ParseKeyframeEntries(i, s[i], c, kf_bytes, &map.keyframes);
-      release(i);
-    }
-  };
-  map.map_points.resize(c.map_points);
-  const auto parse_map_points = [&] {
-    prefault(kMapPoints);
-    prefault(kObservations);
-    const uint8_t* observations = s[kObservations].data();
-    for (uint64_t i = 0; i < c.map_points; ++i) {
-      observations =
-          ParseMapPoint(mp_bytes + kMapPointRecordSize * i, observations, &map.map_points[i]);
-    }
-  };
-  parse_keyframe_sections({kKeypoints, kDescriptors, kKfPoints, kBow, kFeatureVectors, kGraph});
-  parse_map_points();
+  for (const int i : {kKeypoints, kDescriptors, kKfPoints, kBow, kFeatureVectors, kGraph}) {
+    prefault(i);
+    ParseKeyframeEntries(i, s[i], c, table, &map->keyframes);
+    release(i);
+  }
   release(kKeyframes);
+  prefault(kMapPoints);
+  prefault(kObservations);
+  const uint8_t* observations = s[kObservations].data();
+  map->map_points.resize(c.map_points);
+  for (uint64_t i = 0; i < c.map_points; ++i) {
+    observations = ParseMapPoint(s[kMapPoints].data() + kMapPointRecordSize * i, observations,
+                                 &map->map_points[i]);
+  }
   release(kMapPoints);
   release(kObservations);
+}
 
+// `mapping`, when non-null, is the mapped file that `file` is.
+MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info,
+                 const MappedFile* mapping) {
+  const ParsedHeader h = ParseHeader(file, source);
+  const Sections s = CheckedSections(h, source);
+  MapCounts c;
+  MapData map = ParseMeta(s[kMeta], source, &c);
+  CheckCounts(s, c, source);
+  if (mapping != nullptr) mapping->Release(h.payload);  // Read once by the checksums.
+  ParseRecords(s, c, mapping, &map);
   ValidateMapData(map, source);
   if (info != nullptr) *info = h.info;
   return map;
@@ -920,12 +922,7 @@ MapFileInfo ReadMapFileInfo(std::span<const uint8_t> file, const std::string& so
 
 MapData ParseMapMeta(std::span<const uint8_t> file, const std::string& source, MapCounts* counts) {
   const ParsedHeader h = ParseHeader(file, source);
-  const MapSectionInfo& meta = FindSection(h, kMeta, source);
-  const std::span<const uint8_t> bytes = h.payload.subspan(meta.offset, meta.size);
-  if (Checksum64(bytes) != meta.checksum) {
-    throw DataError(source + ": " + SectionText(kMeta) + ": checksum mismatch (file corrupt)");
-  }
-  return ParseMeta(bytes, source, counts);
+  return ParseMeta(CheckedSection(h, kMeta, source), source, counts);
 }
 
 MapData ParseMap(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info) {

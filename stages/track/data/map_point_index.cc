@@ -110,7 +110,10 @@ std::vector<std::pair<uint32_t, uint32_t>> MapPointIndex::SortedByKey(const Tabl
   std::vector<uint32_t> keys(n);
   for (size_t r = 0; r < n; ++r) keys[r] = table.Key(descriptors_[r]);
   std::vector<std::pair<uint32_t, uint32_t>> keyed(n);
-  if (options_.key_bits > kCountingSortMaxBits) {
+  // Counting costs 2^bits counters: for fewer rows than a quarter of them
+  // (the kitchen's 5 600 points against 2^20) a comparison sort is cheaper.
+  const size_t counters = size_t{1} << std::min(options_.key_bits, kCountingSortMaxBits);
+  if (options_.key_bits > kCountingSortMaxBits || 4 * n < counters) {
     for (size_t r = 0; r < n; ++r) keyed[r] = {keys[r], static_cast<uint32_t>(r)};
     std::sort(keyed.begin(), keyed.end());
     return keyed;

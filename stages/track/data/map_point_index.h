@@ -74,7 +74,7 @@ class MapPointIndex {
 
  private:
   struct Table;
-  // Keys of up to this many bits are sorted by counting (2^bits counters).
+  // Keys of up to this many bits may be sorted by counting (2^bits counters).
   static constexpr int kCountingSortMaxBits = 24;
   // (key, row) of every row in `table`, sorted.
   std::vector<std::pair<uint32_t, uint32_t>> SortedByKey(const Table& table) const;
