@@ -20,9 +20,12 @@ constexpr size_t kTrimSlack = size_t{64} << 20;
 size_t ReserveHeap(size_t bytes) {
   if (bytes == 0) return 0;
   mallopt(M_MMAP_THRESHOLD, static_cast<int>(kMmapThreshold));
+  // mallopt takes an int: a threshold beyond 2 GB cannot be set, and a
+  // capped one would give a larger reservation back to the system at the
+  // first free (its advice lost with it), so trimming is then turned off
+  // (-1, glibc's "never").
   const size_t trim = bytes + kTrimSlack;
-  mallopt(M_TRIM_THRESHOLD,
-          trim > static_cast<size_t>(INT32_MAX) ? INT32_MAX : static_cast<int>(trim));
+  mallopt(M_TRIM_THRESHOLD, trim > static_cast<size_t>(INT32_MAX) ? -1 : static_cast<int>(trim));
   const uintptr_t page = static_cast<uintptr_t>(sysconf(_SC_PAGESIZE));
   std::vector<void*> blocks;
   size_t advised = 0;

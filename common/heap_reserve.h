@@ -15,7 +15,8 @@
 // Process-wide effects, from the first call on: glibc's mmap threshold is set
 // to 32 MB (its own adaptive threshold's ceiling: blocks below it come from
 // the heap) and its trim threshold to 64 MB above the reservation (freed heap
-// tops below that are kept). Memory is only advised, not touched: pages
+// tops below that are kept; no trimming at all when that exceeds 2 GB, the
+// largest threshold glibc takes). Memory is only advised, not touched: pages
 // become resident when used. Allocations of other threads use other arenas
 // and do not benefit, so the burst should run on the calling thread.
 #pragma once

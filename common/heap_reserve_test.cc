@@ -72,5 +72,19 @@ TEST(ReserveHeap, ABurstOfAllocationsLandsInHugePageMemory) {
   EXPECT_GE(inside, blocks.size() * 9 / 10) << "of " << blocks.size();
 }
 
+// A reservation beyond 2 GB (a building-scale map) stays in the heap: glibc
+// takes no trim threshold that large, and with one capped at 2 GB the blocks'
+// own frees gave most of it back to the system at once, advice and all.
+TEST(ReserveHeap, AReservationBeyondTwoGigabytesIsKept) {
+  if (kSanitizerAllocator) GTEST_SKIP() << "a sanitizer's allocator ignores glibc's settings";
+  const size_t bytes = size_t{3} << 30;  // Address space only: nothing is touched.
+  const size_t advised = ReserveHeap(bytes);
+  if (advised == 0) GTEST_SKIP() << "this kernel refuses MADV_HUGEPAGE";
+  std::free(std::malloc(64));  // A free, where glibc would trim.
+  size_t huge = 0;
+  for (const auto& [begin, end] : HugePageMappings()) huge += end - begin;
+  EXPECT_GE(huge, bytes - (size_t{16} << 20));
+}
+
 }  // namespace
 }  // namespace rrslam
