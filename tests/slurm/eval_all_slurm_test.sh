@@ -4,14 +4,18 @@
 # Starts a private one-node Slurm cluster on this machine, all of it in a
 # temporary folder: munged (its own key and socket), slurmctld and slurmd
 # (their own slurm.conf, free high ports, state, spool, PID and log files),
-# without systemd, cgroups or an accounting database. Renders two short
-# synthetic sequences with rrslam-synth, then runs
+# without systemd, cgroups or an accounting database. Renders eight short
+# synthetic sequences with rrslam-synth (four trajectories, two seeds), then
+# runs
 #   make -j2 eval-all LAUNCHER="srun -N1 -n1 -c1 ..." SKIP_BUILD=1 ...
-# and asserts: make exits 0, both sequences have ate.json and the summary
-# lists them, and every tool run of the pipelines (extract, cluster, vocab
+# and asserts: make exits 0, every sequence has ate.json and the summary
+# lists it, and every tool run of the pipelines (extract, cluster, vocab
 # build, track, eval ate; 5 per sequence) ran as a Slurm job: LAUNCHER ends in
 # a small wrapper that records the job's SLURM_JOB_ID before it execs the
-# tool, and slurmctld's log names each of those jobs.
+# tool, and slurmctld's log names each of those jobs. Then runs the same
+# eval-all without LAUNCHER into other folders and asserts that the two
+# summary tables are identical but for the tracking time column (a
+# measurement of this machine's load, not a result).
 #
 # Exits 77 (CTest: skipped) with one line "e2e/slurm: skipped: <why>" when the
 # cluster cannot be set up here: not root, Slurm or MUNGE not installed
@@ -287,16 +291,25 @@ done
 t_cluster=$SECONDS
 echo "$name: one-node Slurm up on $host ($cpus CPUs) in ${t_cluster} s"
 
-# --- Data: two short synthetic sequences ------------------------------------
+# --- Data: eight short synthetic sequences ----------------------------------
+# Four trajectories, two seeds (other textures, noise and holes); the shake
+# without motion blur, which would make its rendering most of the test's time.
 readonly frames=40
+sequences=()
 mkdir -p "$tmp/data"
-for traj in loop sweep; do  # side by side: rendering is most of the test's time
-  "$bin/rrslam-synth" --quiet --out "$tmp/data/$traj" --trajectory "$traj" --frames "$frames" \
-    --seed 3 > "$tmp/synth-$traj.log" 2>&1 &
-  synth_pids+=($!)
+for seed in 3 4; do
+  for traj in loop sweep rotation shake; do
+    sequences+=("$traj-$seed")
+    # Side by side, one thread each: rendering is much of the test's time.
+    "$bin/rrslam-synth" --quiet --out "$tmp/data/$traj-$seed" --trajectory "$traj" \
+      --frames "$frames" --seed "$seed" --motion-blur 0 --threads 1 \
+      > "$tmp/synth-$traj-$seed.log" 2>&1 &
+    synth_pids+=($!)
+  done
 done
-for i in 0 1; do
-  if ! wait "${synth_pids[$i]}"; then
+readonly sequences
+for pid in "${synth_pids[@]}"; do
+  if ! wait "$pid"; then
     cat "$tmp/synth-"*.log
     fail "rrslam-synth failed"
   fi
@@ -317,25 +330,33 @@ launcher="srun -N1 -n1 -c1 --export=ALL,$marker $tmp/record-job"
 # make gets what is left of the test's time (CTest's TIMEOUT, which kills
 # without asking) but 30 s, so that a hanging job still ends in a clean stop
 # of the cluster and a report.
-make_timeout=$((${RRSLAM_SLURM_TEST_TIMEOUT:-300} - SECONDS - 30))
+make_timeout=$((${RRSLAM_SLURM_TEST_TIMEOUT:-600} - SECONDS - 30))
 ((make_timeout >= 60)) || make_timeout=60
 t0=$SECONDS
-SLURM_CONF=$conf env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL \
-  timeout -k 10 "$make_timeout" make --no-print-directory -C "$src" -j2 eval-all \
-  DATA_ROOT="$tmp/data" EVAL_ROOT="$tmp/eval" PIPELINE_ROOT="$tmp/pipeline" BIN="$bin" \
-  SKIP_BUILD=1 VOCAB_K=6 VOCAB_L=3 LAUNCHER="$launcher" > "$tmp/make.log" 2>&1 &
-make_pid=$!
-wait "$make_pid"
-make_rc=$?
-make_pid=""
+# Runs make eval-all into $tmp/eval$1 and $tmp/pipeline$1 with LAUNCHER=$2,
+# its output in $tmp/make$1.log, within what is left of make_timeout; fails
+# the test when make does.
+run_eval_all() {
+  local suffix=$1 launch=$2 left=$((make_timeout - (SECONDS - t0)))
+  ((left >= 30)) || left=30
+  SLURM_CONF=$conf env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL \
+    timeout -k 10 "$left" make --no-print-directory -C "$src" -j2 eval-all \
+    DATA_ROOT="$tmp/data" EVAL_ROOT="$tmp/eval$suffix" PIPELINE_ROOT="$tmp/pipeline$suffix" \
+    BIN="$bin" SKIP_BUILD=1 VOCAB_K=6 VOCAB_L=3 LAUNCHER="$launch" > "$tmp/make$suffix.log" 2>&1 &
+  make_pid=$!
+  wait "$make_pid"
+  local rc=$?
+  make_pid=""
+  if [[ $rc -ne 0 ]]; then
+    echo "---- make eval-all${launch:+ through srun} (exit $rc) ----"
+    tail -n 80 "$tmp/make$suffix.log"
+    [[ $rc -eq 124 ]] && fail "make eval-all timed out after $left s"
+    fail "make eval-all exited with $rc"
+  fi
+}
+run_eval_all "" "$launcher"
 t_make=$((SECONDS - t0))
-if [[ $make_rc -ne 0 ]]; then
-  echo "---- make eval-all (exit $make_rc) ----"
-  tail -n 80 "$tmp/make.log"
-  [[ $make_rc -eq 124 ]] && fail "make eval-all timed out after $make_timeout s"
-  fail "make eval-all exited with $make_rc"
-fi
-echo "$name: make -j2 eval-all through srun: ${t_make} s"
+echo "$name: make -j2 eval-all through srun: ${t_make} s (${#sequences[@]} sequences)"
 
 # --- Checks ------------------------------------------------------------------------
 errors=0
@@ -345,10 +366,10 @@ check() {
     errors=$((errors + 1))
   fi
 }
-for traj in loop sweep; do
-  check "[[ -s $tmp/eval/own/$traj/ate.json ]]" "no eval/own/$traj/ate.json"
-  check "grep -q '\"rmse' $tmp/eval/own/$traj/ate.json" "eval/own/$traj/ate.json has no RMSE"
-  check "grep -q '$traj' $tmp/eval/own/summary.md" "summary.md does not list $traj"
+for s in "${sequences[@]}"; do
+  check "[[ -s $tmp/eval/own/$s/ate.json ]]" "no eval/own/$s/ate.json"
+  check "grep -q '\"rmse' $tmp/eval/own/$s/ate.json" "eval/own/$s/ate.json has no RMSE"
+  check "grep -q '| $s |' $tmp/eval/own/summary.md" "summary.md does not list $s"
 done
 check "grep -q 'srun -N1 -n1 -c1' $tmp/make.log" "make did not run the tools through srun"
 
@@ -359,12 +380,13 @@ echo "$name: tool runs (Slurm job, tool):"
 sed 's/^/  /' "$tmp/jobs.txt"
 for t in "${expected[@]}"; do
   n=$(awk -v t="$t" '$2 == t' "$tmp/jobs.txt" | wc -l)
-  check "[[ $n -eq 2 ]]" "$t ran $n times under srun, expected 2 (one per sequence)"
+  check "[[ $n -eq ${#sequences[@]} ]]" \
+    "$t ran $n times under srun, expected ${#sequences[@]} (one per sequence)"
 done
 check "! grep -q '^none ' $tmp/jobs.txt" "a tool ran without SLURM_JOB_ID"
 runs=$(wc -l < "$tmp/jobs.txt")
 jobs=$(awk '{print $1}' "$tmp/jobs.txt" | sort -u | wc -l)
-want=$((${#expected[@]} * 2))
+want=$((${#expected[@]} * ${#sequences[@]}))
 check "[[ $jobs -eq $runs && $runs -eq $want ]]" \
   "$runs tool runs in $jobs distinct Slurm jobs; expected $want, each in a job of its own"
 # slurmctld allocated each of those jobs (its log names the job id).
@@ -378,5 +400,23 @@ if [[ $errors -ne 0 ]]; then
   tail -n 60 "$tmp/make.log"
   fail "$errors check(s) failed"
 fi
-echo "$name: passed (cluster up ${t_cluster} s, synth $((t_synth - t_cluster)) s, eval-all ${t_make} s," \
-  "total ${SECONDS} s)"
+
+# --- The same evaluation without Slurm: the same table -----------------------
+t1=$SECONDS
+run_eval_all "-local" ""
+t_local=$((SECONDS - t1))
+echo "$name: make -j2 eval-all without LAUNCHER: ${t_local} s"
+# The table without its last column (tracking median ms: time, not a result).
+results_table() {
+  awk -F'|' 'BEGIN { OFS = "|" } /^\|/ { NF -= 2; print $0 "|"; next } { print }' "$1"
+}
+if ! diff <(results_table "$tmp/eval/own/summary.md") \
+          <(results_table "$tmp/eval-local/own/summary.md") > "$tmp/summary.diff"; then
+  echo "---- summary through srun (<) and local (>) ----"
+  cat "$tmp/summary.diff"
+  fail "the summary through srun differs from the local run's"
+fi
+echo "$name: summary tables through srun and local identical but for tracking time:"
+sed 's/^/  /' "$tmp/eval/own/summary.md"
+echo "$name: passed (cluster up ${t_cluster} s, synth $((t_synth - t_cluster)) s," \
+  "eval-all ${t_make} s through srun and ${t_local} s local, total ${SECONDS} s)"
