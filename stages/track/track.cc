@@ -25,6 +25,7 @@
 #include "common/output_path.h"
 #include "common/progress.h"
 #include "common/settings.h"
+#include "common/task_thread.h"
 #include "common/text.h"
 #include "common/trajectory.h"
 #include "stages/extract/features_file.h"
@@ -524,6 +525,8 @@ class TrackSession {
     if (realtime_ && mapping_) {
       mapper_->Start();
       if (options_.loop_closing) closer_->Start();
+    } else if (!realtime_) {
+      batch_mapping_.emplace();
     }
     if (!use_features_) {
       prefetcher_ =
@@ -592,8 +595,12 @@ class TrackSession {
     if (tracker_->reset_requested()) ResetMap(k);
     tracking_ms_.push_back(MillisecondsSince(start));
     if (!realtime_ && new_keyframe) {
-      mapper_->ProcessQueued();
-      closer_->ProcessQueued();
+      // In step, but on a thread (and so a heap) of their own, as in realtime
+      // mode (common/task_thread.h).
+      batch_mapping_->Run([this] {
+        mapper_->ProcessQueued();
+        closer_->ProcessQueued();
+      });
 #ifndef NDEBUG
       RequireMapInvariants(map_, "after the keyframe of frame " + std::to_string(k));
 #endif
@@ -927,6 +934,7 @@ class TrackSession {
   // The frame loop (TrackFrames).
   std::unique_ptr<ImagePrefetcher> prefetcher_;
   std::unique_ptr<OrbExtractor> extractor_;
+  std::optional<TaskThread> batch_mapping_;  // Batch mode: local mapping and loop closing.
   std::vector<double> tracking_ms_, extraction_ms_, loading_ms_;
   SteadyClock::time_point loop_start_;
   double loop_s_ = 0;
