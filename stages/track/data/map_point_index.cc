@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <random>
 
+#include "common/worker_pool.h"
 #include "stages/track/data/map.h"
 #include "stages/track/data/map_point.h"
 
@@ -58,6 +59,10 @@ bool MapPointIndexOptions::Check(std::string* why) const {
   if (probe_level < 0 || probe_level > 1) {
     return fail("probe_level = " + std::to_string(probe_level) + "; must be 0 or 1");
   }
+  if (threads < 1 || threads > kMaxThreads) {
+    return fail("threads = " + std::to_string(threads) + "; must be in [1, " +
+                std::to_string(kMaxThreads) + "]");
+  }
   return true;
 }
 
@@ -74,6 +79,7 @@ void MapPointIndex::Build(const Map& map) {
 }
 
 void MapPointIndex::Build(const std::vector<MapPoint*>& points) {
+  if (options_.threads > 1 && !pool_) pool_ = std::make_unique<WorkerPool>(options_.threads);
   built_from_map_ = false;
   points_.clear();
   descriptors_.clear();
@@ -136,47 +142,87 @@ std::vector<DescriptorNeighbours> MapPointIndex::Search(
     const std::vector<OrbDescriptor>& queries) const {
   std::vector<DescriptorNeighbours> out(queries.size());
   if (points_.empty()) return out;
-  // Rows already compared for the current query (its number + 1).
-  std::vector<uint32_t> seen(points_.size(), 0);
-  for (size_t q = 0; q < queries.size(); ++q) {
+  // Queries are independent: chunks of them, on the pool's threads.
+  constexpr size_t kChunk = 64;
+  const size_t chunks = (queries.size() + kChunk - 1) / kChunk;
+  auto chunk = [&](size_t c) {
+    SearchRange(queries, c * kChunk, std::min(queries.size(), (c + 1) * kChunk), &out);
+  };
+  if (pool_) {
+    pool_->ParallelFor(chunks, chunk);
+  } else {
+    for (size_t c = 0; c < chunks; ++c) chunk(c);
+  }
+  return out;
+}
+
+void MapPointIndex::SearchRange(const std::vector<OrbDescriptor>& queries, size_t begin, size_t end,
+                                std::vector<DescriptorNeighbours>* out) const {
+  // On a big map every slot and row a query reads is a cache miss: each
+  // query's reads are issued as prefetches in three passes (its probes'
+  // slots, their rows, then compared), so that the misses overlap instead of
+  // following one another. The rows are compared in the order a plain walk
+  // visits them (table, probe, row), so ties resolve alike. A row found
+  // again (in another table) is compared again, from the cache: cheaper
+  // than a table of rows seen, which costs a miss of its own per row.
+  struct Probe {
+    const Table* table;
+    uint32_t key;
+  };
+  std::vector<Probe> probes;
+  std::vector<uint32_t> rows;
+  constexpr uint32_t kNoRow = UINT32_MAX;
+  const int flips = options_.probe_level > 0 ? options_.key_bits : 0;
+  for (size_t q = begin; q < end; ++q) {
     const DescriptorWords query = ToWords(queries[q]);
-    const uint32_t stamp = static_cast<uint32_t>(q + 1);
-    DescriptorNeighbours& n = out[q];
-    auto consider = [&](uint32_t row) {
-      if (seen[row] == stamp) return;
-      seen[row] = stamp;
+    // The query's bucket in each table, then (probe level 1) those one key
+    // bit away.
+    probes.clear();
+    for (const Table& table : tables_) {
+      const uint32_t key = table.Key(queries[q]);
+      for (int flip = -1; flip < flips; ++flip) {
+        const uint32_t probe = flip < 0 ? key : key ^ (1u << flip);
+        probes.push_back({&table, probe});
+        __builtin_prefetch(&table.slots[table.Home(probe)]);
+      }
+    }
+    rows.clear();
+    for (const Probe& probe : probes) {
+      const Table::Slot* slot = probe.table->Find(probe.key);
+      if (slot == nullptr) continue;
+      for (uint32_t i = slot->offset; i < slot->offset + slot->count; ++i) {
+        const uint32_t row = probe.table->rows[i];
+        rows.push_back(row);
+        __builtin_prefetch(&descriptors_[row]);
+      }
+    }
+    DescriptorNeighbours& n = (*out)[q];
+    // Rows of the two nearest so far (a row found again must not be both).
+    uint32_t first_row = kNoRow, second_row = kNoRow;
+    for (const uint32_t row : rows) {
+      if (row == first_row || row == second_row) continue;
       const int d = HammingDistance(query, ToWords(descriptors_[row]));
       const bool first = d < n.first_distance || (d == n.first_distance && n.first == nullptr);
       if (!first && !(d < n.second_distance || (d == n.second_distance && n.second == nullptr))) {
-        return;
+        continue;
       }
       // Only now the point itself (a cache miss per row on a big map).
       MapPoint* p = points_[row];
-      if (p->bad()) return;
+      if (p->bad()) continue;
       if (first) {
+        second_row = first_row;
+        first_row = row;
         n.second = n.first;
         n.second_distance = n.first_distance;
         n.first = p;
         n.first_distance = d;
       } else {
+        second_row = row;
         n.second = p;
         n.second_distance = d;
       }
-    };
-    for (const Table& table : tables_) {
-      const uint32_t key = table.Key(queries[q]);
-      // The query's bucket, then (probe level 1) those one key bit away.
-      for (int flip = -1; flip < (options_.probe_level > 0 ? options_.key_bits : 0); ++flip) {
-        const uint32_t probe = flip < 0 ? key : key ^ (1u << flip);
-        const Table::Slot* slot = table.Find(probe);
-        if (slot == nullptr) continue;
-        for (uint32_t i = slot->offset; i < slot->offset + slot->count; ++i) {
-          consider(table.rows[i]);
-        }
-      }
     }
   }
-  return out;
 }
 
 }  // namespace rrslam

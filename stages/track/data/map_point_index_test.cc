@@ -86,6 +86,34 @@ TEST(MapPointIndexTest, TheSamePointsGiveTheSameAnswers) {
   EXPECT_LT(found, 500);
 }
 
+// The answers do not depend on the threads a search runs on.
+TEST(MapPointIndexTest, AnyNumberOfThreadsGivesTheSameAnswers) {
+  std::mt19937 rng(11);
+  Map map;
+  const std::vector<MapPoint*> points = RandomPoints(&map, 20000, rng);
+  std::vector<OrbDescriptor> queries;
+  for (int q = 0; q < 1000; ++q) queries.push_back(FlipBits(points[q * 19]->descriptor(), 40, rng));
+  MapPointIndexOptions one_thread, three_threads;
+  one_thread.threads = 1;
+  three_threads.threads = 3;
+  MapPointIndex a(one_thread), b(three_threads);
+  a.Build(map);
+  b.Build(map);
+  const std::vector<DescriptorNeighbours> found_a = a.Search(queries);
+  const std::vector<DescriptorNeighbours> found_b = b.Search(queries);
+  ASSERT_EQ(found_a.size(), queries.size());
+  ASSERT_EQ(found_b.size(), queries.size());
+  int found = 0;
+  for (size_t q = 0; q < queries.size(); ++q) {
+    EXPECT_EQ(found_a[q].first, found_b[q].first);
+    EXPECT_EQ(found_a[q].second, found_b[q].second);
+    EXPECT_EQ(found_a[q].first_distance, found_b[q].first_distance);
+    EXPECT_EQ(found_a[q].second_distance, found_b[q].second_distance);
+    found += found_a[q].first == points[q * 19];
+  }
+  EXPECT_GT(found, 500);  // Found across every chunk of queries.
+}
+
 TEST(MapPointIndexTest, SkipsCulledPointsAndKnowsWhenTheMapChanged) {
   std::mt19937 rng(5);
   Map map;
@@ -124,6 +152,10 @@ TEST(MapPointIndexTest, OptionsOutOfRangeAreNamed) {
   o.key_bits = 40;
   EXPECT_FALSE(o.Check(&why));
   EXPECT_EQ(why, "key_bits = 40; must be in [1, 32]");
+  o = {};
+  o.threads = 0;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_EQ(why, "threads = 0; must be in [1, 256]");
 }
 
 }  // namespace
