@@ -60,27 +60,40 @@ TEST(MapPointIndexTest, FindsAKnownDescriptorAmongAHundredThousand) {
   EXPECT_GE(hits, 950) << "recall " << hits / 10.0 << "%";
 }
 
-// Two builds over the same points answer alike, far matches included (40
-// of 256 bits flipped, where LSH misses some): batch runs repeat exactly.
-// (FLANN 1.9's LshIndex draws its key bits from std::random_device.)
-TEST(MapPointIndexTest, TheSamePointsGiveTheSameAnswers) {
-  std::mt19937 rng(7);
+// Builds `a` and `b` over 20 000 random points and searches both for
+// `queries` descriptors of points (every `stride`th) with 40 of 256 bits
+// flipped (far matches, where LSH misses some): expects the same answers
+// from both; returns how many found their point.
+int SameAnswers(MapPointIndex* a, MapPointIndex* b, int queries, int stride, uint32_t seed) {
+  std::mt19937 rng(seed);
   Map map;
   const std::vector<MapPoint*> points = RandomPoints(&map, 20000, rng);
-  std::vector<OrbDescriptor> queries;
-  for (int q = 0; q < 500; ++q) queries.push_back(FlipBits(points[q * 37]->descriptor(), 40, rng));
-  MapPointIndex a, b;
-  a.Build(map);
-  b.Build(map);
-  const std::vector<DescriptorNeighbours> found_a = a.Search(queries);
-  const std::vector<DescriptorNeighbours> found_b = b.Search(queries);
+  std::vector<OrbDescriptor> descriptors;
+  for (int q = 0; q < queries; ++q) {
+    descriptors.push_back(FlipBits(points[q * stride]->descriptor(), 40, rng));
+  }
+  a->Build(map);
+  b->Build(map);
+  const std::vector<DescriptorNeighbours> found_a = a->Search(descriptors);
+  const std::vector<DescriptorNeighbours> found_b = b->Search(descriptors);
+  EXPECT_EQ(found_a.size(), descriptors.size());
+  EXPECT_EQ(found_b.size(), descriptors.size());
   int found = 0;
-  for (size_t q = 0; q < queries.size(); ++q) {
+  for (size_t q = 0; q < found_a.size() && q < found_b.size(); ++q) {
     EXPECT_EQ(found_a[q].first, found_b[q].first);
     EXPECT_EQ(found_a[q].second, found_b[q].second);
     EXPECT_EQ(found_a[q].first_distance, found_b[q].first_distance);
-    found += found_a[q].first == points[q * 37];
+    EXPECT_EQ(found_a[q].second_distance, found_b[q].second_distance);
+    found += found_a[q].first == points[q * stride];
   }
+  return found;
+}
+
+// Two builds over the same points answer alike: batch runs repeat exactly.
+// (FLANN 1.9's LshIndex draws its key bits from std::random_device.)
+TEST(MapPointIndexTest, TheSamePointsGiveTheSameAnswers) {
+  MapPointIndex a, b;
+  const int found = SameAnswers(&a, &b, 500, 37, 7);
   // Some, not all: the test is on approximate answers.
   EXPECT_GT(found, 250);
   EXPECT_LT(found, 500);
@@ -88,30 +101,11 @@ TEST(MapPointIndexTest, TheSamePointsGiveTheSameAnswers) {
 
 // The answers do not depend on the threads a search runs on.
 TEST(MapPointIndexTest, AnyNumberOfThreadsGivesTheSameAnswers) {
-  std::mt19937 rng(11);
-  Map map;
-  const std::vector<MapPoint*> points = RandomPoints(&map, 20000, rng);
-  std::vector<OrbDescriptor> queries;
-  for (int q = 0; q < 1000; ++q) queries.push_back(FlipBits(points[q * 19]->descriptor(), 40, rng));
   MapPointIndexOptions one_thread, three_threads;
   one_thread.threads = 1;
   three_threads.threads = 3;
   MapPointIndex a(one_thread), b(three_threads);
-  a.Build(map);
-  b.Build(map);
-  const std::vector<DescriptorNeighbours> found_a = a.Search(queries);
-  const std::vector<DescriptorNeighbours> found_b = b.Search(queries);
-  ASSERT_EQ(found_a.size(), queries.size());
-  ASSERT_EQ(found_b.size(), queries.size());
-  int found = 0;
-  for (size_t q = 0; q < queries.size(); ++q) {
-    EXPECT_EQ(found_a[q].first, found_b[q].first);
-    EXPECT_EQ(found_a[q].second, found_b[q].second);
-    EXPECT_EQ(found_a[q].first_distance, found_b[q].first_distance);
-    EXPECT_EQ(found_a[q].second_distance, found_b[q].second_distance);
-    found += found_a[q].first == points[q * 19];
-  }
-  EXPECT_GT(found, 500);  // Found across every chunk of queries.
+  EXPECT_GT(SameAnswers(&a, &b, 1000, 19, 11), 500);  // Found across every chunk of queries.
 }
 
 TEST(MapPointIndexTest, SkipsCulledPointsAndKnowsWhenTheMapChanged) {
