@@ -158,69 +158,74 @@ std::vector<DescriptorNeighbours> MapPointIndex::Search(
 
 void MapPointIndex::SearchRange(const std::vector<OrbDescriptor>& queries, size_t begin, size_t end,
                                 std::vector<DescriptorNeighbours>* out) const {
-  // On a big map every slot and row a query reads is a cache miss: each
-  // query's reads are issued as prefetches in three passes (its probes'
-  // slots, their rows, then compared), so that the misses overlap instead of
-  // following one another. The rows are compared in the order a plain walk
-  // visits them (table, probe, row), so ties resolve alike. A row found
-  // again (in another table) is compared again, from the cache: cheaper
-  // than a table of rows seen, which costs a miss of its own per row.
-  struct Probe {
-    const Table* table;
-    uint32_t key;
-  };
   std::vector<Probe> probes;
   std::vector<uint32_t> rows;
-  constexpr uint32_t kNoRow = UINT32_MAX;
-  const int flips = options_.probe_level > 0 ? options_.key_bits : 0;
   for (size_t q = begin; q < end; ++q) {
-    const DescriptorWords query = ToWords(queries[q]);
-    // The query's bucket in each table, then (probe level 1) those one key
-    // bit away.
-    probes.clear();
-    for (const Table& table : tables_) {
-      const uint32_t key = table.Key(queries[q]);
-      for (int flip = -1; flip < flips; ++flip) {
-        const uint32_t probe = flip < 0 ? key : key ^ (1u << flip);
-        probes.push_back({&table, probe});
-        __builtin_prefetch(&table.slots[table.Home(probe)]);
-      }
+    CandidateRows(queries[q], &probes, &rows);
+    KeepTwoNearest(ToWords(queries[q]), rows, &(*out)[q]);
+  }
+}
+
+// On a big map every slot and row a query reads is a cache miss: the reads
+// are issued as prefetches in passes (the probes' slots, then their rows,
+// compared by KeepTwoNearest), so that the misses overlap instead of
+// following one another.
+void MapPointIndex::CandidateRows(const OrbDescriptor& query, std::vector<Probe>* probes,
+                                  std::vector<uint32_t>* rows) const {
+  // The query's bucket in each table, then (probe level 1) those one key
+  // bit away.
+  const int flips = options_.probe_level > 0 ? options_.key_bits : 0;
+  probes->clear();
+  for (const Table& table : tables_) {
+    const uint32_t key = table.Key(query);
+    for (int flip = -1; flip < flips; ++flip) {
+      const uint32_t probe = flip < 0 ? key : key ^ (1u << flip);
+      probes->push_back({&table, probe});
+      __builtin_prefetch(&table.slots[table.Home(probe)]);
     }
-    rows.clear();
-    for (const Probe& probe : probes) {
-      const Table::Slot* slot = probe.table->Find(probe.key);
-      if (slot == nullptr) continue;
-      for (uint32_t i = slot->offset; i < slot->offset + slot->count; ++i) {
-        const uint32_t row = probe.table->rows[i];
-        rows.push_back(row);
-        __builtin_prefetch(&descriptors_[row]);
-      }
+  }
+  rows->clear();
+  for (const Probe& probe : *probes) {
+    const Table::Slot* slot = probe.table->Find(probe.key);
+    if (slot == nullptr) continue;
+    for (uint32_t i = slot->offset; i < slot->offset + slot->count; ++i) {
+      const uint32_t row = probe.table->rows[i];
+      rows->push_back(row);
+      __builtin_prefetch(&descriptors_[row]);
     }
-    DescriptorNeighbours& n = (*out)[q];
-    // Rows of the two nearest so far (a row found again must not be both).
-    uint32_t first_row = kNoRow, second_row = kNoRow;
-    for (const uint32_t row : rows) {
-      if (row == first_row || row == second_row) continue;
-      const int d = HammingDistance(query, ToWords(descriptors_[row]));
-      const bool first = d < n.first_distance || (d == n.first_distance && n.first == nullptr);
-      if (!first && !(d < n.second_distance || (d == n.second_distance && n.second == nullptr))) {
-        continue;
-      }
-      // Only now the point itself (a cache miss per row on a big map).
-      MapPoint* p = points_[row];
-      if (p->bad()) continue;
-      if (first) {
-        second_row = first_row;
-        first_row = row;
-        n.second = n.first;
-        n.second_distance = n.first_distance;
-        n.first = p;
-        n.first_distance = d;
-      } else {
-        second_row = row;
-        n.second = p;
-        n.second_distance = d;
-      }
+  }
+}
+
+// The rows are compared in the order a plain walk visits them (table, probe,
+// row), so ties resolve alike. A row found again (in another table) is
+// compared again, from the cache: cheaper than a table of rows seen, which
+// costs a miss of its own per row.
+void MapPointIndex::KeepTwoNearest(const DescriptorWords& query, const std::vector<uint32_t>& rows,
+                                   DescriptorNeighbours* n) const {
+  constexpr uint32_t kNoRow = UINT32_MAX;
+  // Rows of the two nearest so far (a row found again must not be both).
+  uint32_t first_row = kNoRow, second_row = kNoRow;
+  for (const uint32_t row : rows) {
+    if (row == first_row || row == second_row) continue;
+    const int d = HammingDistance(query, ToWords(descriptors_[row]));
+    const bool first = d < n->first_distance || (d == n->first_distance && n->first == nullptr);
+    if (!first && !(d < n->second_distance || (d == n->second_distance && n->second == nullptr))) {
+      continue;
+    }
+    // Only now the point itself (a cache miss per row on a big map).
+    MapPoint* p = points_[row];
+    if (p->bad()) continue;
+    if (first) {
+      second_row = first_row;
+      first_row = row;
+      n->second = n->first;
+      n->second_distance = n->first_distance;
+      n->first = p;
+      n->first_distance = d;
+    } else {
+      second_row = row;
+      n->second = p;
+      n->second_distance = d;
     }
   }
 }

@@ -81,9 +81,21 @@ class MapPointIndex {
 
  private:
   struct Table;
+  // A bucket to read: `key` in `table`.
+  struct Probe {
+    const Table* table;
+    uint32_t key;
+  };
   // Search() of queries [begin, end) into out[begin, end).
   void SearchRange(const std::vector<OrbDescriptor>& queries, size_t begin, size_t end,
                    std::vector<DescriptorNeighbours>* out) const;
+  // The rows in the buckets `query` probes (`probes`: scratch), in table,
+  // probe and bucket order; a row in several tables appears once per table.
+  void CandidateRows(const OrbDescriptor& query, std::vector<Probe>* probes,
+                     std::vector<uint32_t>* rows) const;
+  // The two nearest good points among `rows` into `n` (initially empty).
+  void KeepTwoNearest(const DescriptorWords& query, const std::vector<uint32_t>& rows,
+                      DescriptorNeighbours* n) const;
   // Keys of up to this many bits may be sorted by counting (2^bits counters).
   static constexpr int kCountingSortMaxBits = 24;
   // (key, row) of every row in `table`, sorted.
