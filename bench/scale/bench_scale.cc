@@ -43,7 +43,9 @@
 #include "bench/common/bench_report.h"
 #include "common/chart.h"
 #include "common/clock.h"
+#include "common/dataset.h"
 #include "common/image_io.h"
+#include "common/trajectory.h"
 #include "stages/mapstore/map_compose.h"
 #include "stages/mapstore/map_file.h"
 #include "stages/vocab/vocabulary.h"
@@ -331,17 +333,6 @@ Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Voc
   return row;
 }
 
-// Timestamps (first column) of a TUM-format file's lines, comments skipped.
-std::vector<double> Timestamps(const fs::path& file) {
-  std::vector<double> out;
-  std::ifstream in(file);
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    out.push_back(std::stod(line));
-  }
-  return out;
-}
-
 // Revisits (--synth): three laps of the standard room's loop, mapped in one
 // run; the keyframes left at the end, by the lap that made them.
 void MeasureRevisits(const Options& o, Report* report) {
@@ -360,11 +351,11 @@ void MeasureRevisits(const Options& o, Report* report) {
       o.work / "revisit.txt");
   report->Add(s, {"run failed", run.exit_code == 0 ? 0.0 : 1.0, "", "0", run.exit_code == 0});
   if (run.exit_code != 0) return;
-  const std::vector<double> frames = Timestamps(sequence / "rgb.txt");
-  const double start = frames.front(), lap = (frames.back() - start) / kLaps;
+  const auto frames = rrslam::ReadTimestampList(sequence / "rgb.txt");
+  const double start = frames.front().first, lap = (frames.back().first - start) / kLaps;
   int per_lap[kLaps] = {};
-  for (const double t : Timestamps(out / "KeyFrameTrajectory.txt")) {
-    ++per_lap[std::min(kLaps - 1, static_cast<int>((t - start) / lap))];
+  for (const rrslam::StampedPose& kf : rrslam::ReadTumTrajectory(out / "KeyFrameTrajectory.txt")) {
+    ++per_lap[std::min(kLaps - 1, static_cast<int>((kf.timestamp - start) / lap))];
   }
   std::ifstream in(out / "run.json");
   const nlohmann::json counts = nlohmann::json::parse(in).at("counts");
