@@ -27,12 +27,9 @@ namespace {
 namespace fs = std::filesystem;
 
 using testing::Quote;
+using testing::ReadJson;
 
 constexpr int kFrames = 120;
-
-nlohmann::json ReadJson(const fs::path& path) {
-  return nlohmann::json::parse(ReadFileToString(path));
-}
 
 class MapPipelineTest : public ::testing::Test {
  protected:

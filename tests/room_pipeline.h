@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 
+#include "common/atomic_file.h"
 #include "common/testing.h"
 
 namespace rrslam::testing {
@@ -28,6 +30,11 @@ inline void PrepareRoomSequence(const std::filesystem::path& dir, const std::str
       "--features " + Quote(features) + " --out " + Quote(dir / "tree.h5") + " --k 8 -L 3");
   run("vocab", "build --tree " + Quote(dir / "tree.h5") + " --features " + Quote(features) +
                    " --out " + Quote(dir / "room.rrv"));
+}
+
+// A JSON file (run.json, synth.json, reports) parsed.
+inline nlohmann::json ReadJson(const std::filesystem::path& path) {
+  return nlohmann::json::parse(ReadFileToString(path));
 }
 
 }  // namespace rrslam::testing

@@ -9,6 +9,13 @@
 //    keyframes against the ground truth under one rigid alignment, beside
 //    the keyframes of one run over the whole sequence; then the middle 30%
 //    localized in the merged map (--localization-only).
+// And, with --synth-vocab, the atlas (online merge) on rrslam-synth's room:
+// the sweep mapped, then the turn (starting off the map, turning onto it)
+// run on that map in batch and realtime mode: the merge's delay after the
+// first frame whose true view overlaps the map, the ATE of every frame in
+// the loaded map's frame, frames lost after the merge; and a session that
+// never meets the map (the turn's first 100 frames): frames lost after its
+// new map started.
 // Usage: see --help; `make bench-lifelong` gives every option.
 #include <CLI/CLI.hpp>
 #include <filesystem>
@@ -39,6 +46,7 @@ struct Options {
   fs::path bin, runs;
   std::vector<std::string> real_names;
   std::vector<fs::path> real_dirs, real_settings, real_vocabs, real_features;
+  fs::path synth_vocab;  // The atlas's synthetic sessions; empty: not measured.
   int frames = 150, sessions = 5;
   std::string machine, out_prefix, command = "make bench-lifelong";
 };
@@ -51,6 +59,8 @@ void BindOptions(CLI::App* app, Options* o) {
   app->add_option("--real-settings", o->real_settings, "Its settings YAML");
   app->add_option("--real-vocab", o->real_vocabs, "Its binary vocabulary");
   app->add_option("--real-features", o->real_features, "Its features file (rrslam-extract)");
+  app->add_option("--synth-vocab", o->synth_vocab,
+                  "Vocabulary for the atlas's synthetic sessions (rendered here); none: skipped");
   app->add_option("--frames", o->frames, "Frames of each session, from the first")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -62,6 +72,13 @@ void BindOptions(CLI::App* app, Options* o) {
       ->capture_default_str();
   app->add_option("--out", o->out_prefix, "Result files prefix (writes .txt and .json)")
       ->required();
+}
+
+std::string Short(double x) {
+  std::ostringstream s;
+  s.precision(x < 10 ? 3 : 4);
+  s << x;
+  return s.str();
 }
 
 struct Sequence {
@@ -159,6 +176,56 @@ double KeyFrameAte(const fs::path& map_or_trajectory, const rrslam::Trajectory& 
   return rrslam::ComputeAte(gt, est).error.rmse;
 }
 
+// The same two parts merged online (the atlas): the last 40% run on the
+// first 30%'s map (restore mapping); where it does not relocalize within
+// --new-map-after it starts a new map, merged when it meets the loaded one.
+bool MeasureOnlineMerge(const Options& o, const Sequence& seq, const fs::path& dir,
+                        size_t second_start, const rrslam::Trajectory& gt, Report* report) {
+  if (Run(TrackCommand(o, seq, dir / "online",
+                       "--first-frame " + std::to_string(second_start) + " --load-map " +
+                           Quote(dir / "a.rrm"))) != 0) {
+    return false;
+  }
+  std::ifstream in(dir / "online" / "run.json");
+  const nlohmann::json run = nlohmann::json::parse(in);
+  const nlohmann::json& atlas = run.at("atlas");
+  const std::string s = seq.name + ", frames " + std::to_string(second_start) +
+                        "- started on the map of the first 30% (online merge)";
+  const nlohmann::json& merges = atlas.at("merges");
+  report->Note(s, "new map started: " +
+                      std::string(atlas.at("maps_started").get<int>() > 0
+                                      ? "after " +
+                                            Short(atlas.at("new_map_timestamp").get<double>() -
+                                                  gt.front().timestamp) +
+                                            " s of the sequence's time"
+                                      : "no (relocalized at once)"));
+  const rrslam::AteAlignment alignment = rrslam::ComputeAteAlignment(
+      gt, rrslam::ReadTumTrajectory(dir / "a" / "CameraTrajectory.txt"));
+  const rrslam::Trajectory est = rrslam::ReadTumTrajectory(dir / "online" / "CameraTrajectory.txt");
+  const double ate = rrslam::EvaluateAte(gt, est, alignment).error.rmse;
+  // Lost frames after the merge, or without one after the first pose in the
+  // loaded map.
+  const double merged_at =
+      merges.empty() ? est.front().timestamp : merges.at(0).at("timestamp").get<double>();
+  int lost_after = 0;
+  for (const auto& t : run.at("lost_timestamps")) lost_after += t.get<double>() > merged_at;
+  if (!merges.empty()) {
+    const nlohmann::json& m = merges.at(0);
+    report->Note(s, "merged at " + Short(merged_at - gt.front().timestamp) + " s (" +
+                        std::to_string(m.at("keyframes_matched").get<int>()) + " of " +
+                        std::to_string(m.at("keyframes_checked").get<int>()) +
+                        " keyframes matched, " + std::to_string(m.at("points_fused").get<int>()) +
+                        " points fused, " + Short(m.at("ms").get<double>()) + " ms)");
+  }
+  report->Add(s, {"frames tracked", run.at("counts").at("tracked").get<double>(),
+                  "of " + std::to_string(run.at("counts").at("frames").get<int>()), "-", true});
+  report->Add(s,
+              {merges.empty() ? "frames lost after the first pose" : "frames lost after the merge",
+               double(lost_after), "frames", "-", true});
+  report->Add(s, {"ATE in the loaded map's frame, tracked frames", ate * 100, "cm", "-", true});
+  return true;
+}
+
 // The offline merge of one sequence, into its section of the report.
 bool MeasureOfflineMerge(const Options& o, const Sequence& seq, Report* report) {
   const rrslam::RgbdSequence frames = rrslam::RgbdSequence::Open(seq.dir);
@@ -200,6 +267,144 @@ bool MeasureOfflineMerge(const Options& o, const Sequence& seq, Report* report) 
                   tracked, "%", ">= 99 %", tracked >= 99.0});
   std::ifstream merge_text(dir / "merge.txt");
   for (std::string line; std::getline(merge_text, line);) report->Note(s, line);
+  return MeasureOnlineMerge(o, seq, dir, second_start, gt, report);
+}
+
+// The atlas's synthetic sessions (rrslam-synth's room, 640 x 480, seed 1):
+// the sweep (looking north) mapped, then the turn (looking south, turning
+// north onto the sweep's view) started on that map.
+struct AtlasRun {
+  nlohmann::json run;        // run.json
+  double ate_m = 0;          // In the loaded map's frame, every tracked frame.
+  int lost_after_new = 0;    // Frames lost after the new map started.
+  int lost_after_merge = 0;  // ... after the merge.
+};
+
+// The first frame of `truth` whose true view holds at least 50 of `map`'s
+// points by ORB-SLAM2's frustum test (in the image, depth > 0, within the
+// point's scale distances, at most 60 degrees from its mean viewing
+// direction); T_gt_map moves the map into the ground truth's world. The
+// timestamp, or -1.
+double FirstOverlappingFrame(const rrslam::MapData& map, const rrslam::Rigid3d& T_gt_map,
+                             const rrslam::Trajectory& truth) {
+  for (const rrslam::StampedPose& pose : truth) {
+    const rrslam::Rigid3d T_cam_map = pose.T_world_cam.Inverse() * T_gt_map;
+    const Eigen::Vector3d centre = T_cam_map.Inverse().translation;
+    int seen = 0;
+    for (const rrslam::MapPointRecord& p : map.map_points) {
+      const Eigen::Vector3d x(p.position[0], p.position[1], p.position[2]);
+      const Eigen::Vector3d c = T_cam_map * x;
+      if (c.z() <= 0) continue;
+      const double u = map.camera.fx * c.x() / c.z() + map.camera.cx;
+      const double v = map.camera.fy * c.y() / c.z() + map.camera.cy;
+      const double distance = (x - centre).norm();
+      const Eigen::Vector3d normal(p.normal[0], p.normal[1], p.normal[2]);
+      if (u < 0 || v < 0 || u >= map.camera.width || v >= map.camera.height ||
+          distance < 0.8 * p.min_distance || distance > 1.2 * p.max_distance ||
+          (x - centre).dot(normal) < 0.5 * distance) {
+        continue;
+      }
+      if (++seen >= 50) return pose.timestamp;
+    }
+  }
+  return -1;
+}
+
+bool RunAtlasSession(const Options& o, const fs::path& dir, const std::string& name,
+                     const std::string& extra, const rrslam::AteAlignment& alignment,
+                     const rrslam::Trajectory& truth, AtlasRun* result) {
+  const fs::path out = dir / name;
+  if (Run((o.bin / "rrslam-track").string() + " --quiet --sequence " + Quote(dir / "turn") +
+          " --settings " + Quote(dir / "turn" / "settings.yaml") + " --vocab " +
+          Quote(o.synth_vocab) + " --load-map " + Quote(dir / "sweep.rrm") + " --out " +
+          Quote(out) + " " + extra) != 0) {
+    return false;
+  }
+  std::ifstream in(out / "run.json");
+  result->run = nlohmann::json::parse(in);
+  const nlohmann::json& atlas = result->run.at("atlas");
+  const double new_map = atlas.value("new_map_timestamp", 1e300);
+  const double merged =
+      atlas.at("merges").empty() ? 1e300 : atlas.at("merges").at(0).at("timestamp").get<double>();
+  for (const auto& t : result->run.at("lost_timestamps")) {
+    result->lost_after_new += t.get<double>() > new_map;
+    result->lost_after_merge += t.get<double>() > merged;
+  }
+  if (!atlas.at("merges").empty()) {
+    result->ate_m = rrslam::EvaluateAte(
+                        truth, rrslam::ReadTumTrajectory(out / "CameraTrajectory.txt"), alignment)
+                        .error.rmse;
+  }
+  return true;
+}
+
+void ReportMergedSession(const std::string& s, const std::string& mode, const AtlasRun& r,
+                         double first_overlap, Report* report) {
+  const nlohmann::json& atlas = r.run.at("atlas");
+  if (atlas.at("merges").empty()) {
+    report->Add(s, {mode + ": merged", 0, "merges", ">= 1", false});
+    return;
+  }
+  const nlohmann::json& m = atlas.at("merges").at(0);
+  const double delay = m.at("timestamp").get<double>() - first_overlap;
+  report->Add(s, {mode + ": merge after the first overlapping frame", delay, "s camera time",
+                  "<= 1 s", delay <= 1.0});
+  report->Note(
+      s, mode + ": new map after " + Short(atlas.at("new_map_timestamp").get<double>()) +
+             " s; first keyframe matched at " + Short(m.at("first_match_timestamp").get<double>()) +
+             " s, merged at " + Short(m.at("timestamp").get<double>()) + " s (" +
+             std::to_string(m.at("keyframes_matched").get<int>()) + " of " +
+             std::to_string(m.at("keyframes_checked").get<int>()) + " keyframes matched, " +
+             std::to_string(m.at("points_fused").get<int>()) + " points fused); the merge took " +
+             Short(m.at("ms").get<double>()) + " ms, a check " +
+             Short(atlas.at("check").at("median_ms").get<double>()) + " ms median");
+  report->Add(s, {mode + ": ATE in the loaded map's frame, every tracked frame", r.ate_m * 100,
+                  "cm", "<= 2 cm", r.ate_m <= 0.02});
+  report->Add(s, {mode + ": frames lost after the merge", double(r.lost_after_merge), "frames", "0",
+                  r.lost_after_merge == 0});
+}
+
+// The atlas (online merge) on the synthetic room, into its section.
+bool MeasureAtlas(const Options& o, Report* report) {
+  const fs::path dir = o.runs / "synth-atlas";
+  fs::create_directories(dir);
+  const std::string synth = (o.bin / "rrslam-synth").string() + " --quiet --seed 1 --out ";
+  for (const auto& [name, frames] : {std::pair<std::string, int>{"sweep", 300}, {"turn", 720}}) {
+    if (fs::exists(dir / name / "synth.json")) continue;
+    if (Run(synth + Quote(dir / name) + " --trajectory " + name + " --frames " +
+            std::to_string(frames)) != 0) {
+      return false;
+    }
+  }
+  if (Run((o.bin / "rrslam-track").string() + " --quiet --sequence " + Quote(dir / "sweep") +
+          " --settings " + Quote(dir / "sweep" / "settings.yaml") + " --vocab " +
+          Quote(o.synth_vocab) + " --out " + Quote(dir / "mapping") + " --save-map " +
+          Quote(dir / "sweep.rrm")) != 0) {
+    return false;
+  }
+  // The map's frame in the ground truth's world, from the mapping run.
+  const rrslam::AteAlignment alignment = rrslam::ComputeAteAlignment(
+      rrslam::ReadTumTrajectory(dir / "sweep" / "groundtruth.txt"),
+      rrslam::ReadTumTrajectory(dir / "mapping" / "CameraTrajectory.txt"));
+  const rrslam::Trajectory truth = rrslam::ReadTumTrajectory(dir / "turn" / "groundtruth.txt");
+  const double first_overlap =
+      FirstOverlappingFrame(rrslam::ReadMapFile(dir / "sweep.rrm"), alignment.T_gt_est, truth);
+  AtlasRun batch, realtime, never;
+  if (!RunAtlasSession(o, dir, "batch", "--save-map " + Quote(dir / "merged.rrm"), alignment, truth,
+                       &batch) ||
+      !RunAtlasSession(o, dir, "realtime", "--mode realtime", alignment, truth, &realtime) ||
+      !RunAtlasSession(o, dir, "never", "--max-frames 100", alignment, truth, &never)) {
+    return false;
+  }
+  const std::string s = "synthetic room: a session off the sweep's map turning onto it (atlas)";
+  report->Note(s,
+               "first frame of the turn whose true view holds >= 50 of the map's points "
+               "(ORB-SLAM2's frustum test): " +
+                   Short(first_overlap) + " s");
+  ReportMergedSession(s, "batch", batch, first_overlap, report);
+  ReportMergedSession(s, "realtime", realtime, first_overlap, report);
+  report->Add(s, {"never meets the map (frames 0-99): frames lost after the new map",
+                  double(never.lost_after_new), "frames", "0", never.lost_after_new == 0});
   return true;
 }
 
@@ -224,6 +429,7 @@ int main(int argc, char** argv) {
     if (!MeasureIdenticalSessions(o, seq, &report)) failed = true;
     if (!MeasureOfflineMerge(o, seq, &report)) failed = true;
   }
+  if (!o.synth_vocab.empty() && !MeasureAtlas(o, &report)) failed = true;
   rrslam::bench::WriteGoalResults(
       o.out_prefix, "bench-lifelong: maps kept over many sessions, against the goals of issue 31",
       o.command, o.machine, report);

@@ -42,13 +42,15 @@ std::string TrajectoryKindName(TrajectoryKind kind) {
       return "rotation";
     case TrajectoryKind::kShake:
       return "shake";
+    case TrajectoryKind::kTurn:
+      return "turn";
   }
   return "unknown";
 }
 
 bool ParseTrajectoryKind(const std::string& name, TrajectoryKind* kind) {
   for (TrajectoryKind k : {TrajectoryKind::kLoop, TrajectoryKind::kSweep, TrajectoryKind::kRotation,
-                           TrajectoryKind::kShake}) {
+                           TrajectoryKind::kShake, TrajectoryKind::kTurn}) {
     if (name == TrajectoryKindName(k)) {
       *kind = k;
       return true;
@@ -118,6 +120,16 @@ Rigid3d CameraPath::T_world_cam(double t) const {
       const double amplitude = std::min(75 * kDeg, kMainTurnRate * cycle / kTwoPi);
       const double yaw = 45 * kDeg + amplitude * std::sin(kTwoPi * cycles * s) + yaw_swing;
       return PoseFromAngles(Eigen::Vector3d(0.2, 0.1, 1.35), yaw, -8 * kDeg + pitch_swing, roll);
+    }
+    case TrajectoryKind::kTurn: {
+      // The turn takes 60% of the sequence; its cosine profile peaks at
+      // pi / 2 * angle / turn, at most kMainTurnRate.
+      const double turn = 0.6 * T;
+      const double angle = std::min(180 * kDeg, kMainTurnRate * turn * 2.0 / M_PI);
+      const double u = std::clamp((s - 0.15) / 0.6, 0.0, 1.0);
+      const double yaw = 90 * kDeg - angle * 0.5 * (1.0 + std::cos(M_PI * u)) + yaw_swing;
+      return PoseFromAngles(Eigen::Vector3d(0.0, -0.4, 1.35 + bob), yaw, -10 * kDeg + pitch_swing,
+                            roll);
     }
     case TrajectoryKind::kShake: {
       // Every term is a Swing: a whole number of cycles per sequence (so the

@@ -50,9 +50,18 @@ enum class TrajectoryKind {
   // instant is at the first's pose. Rendered with motion blur by default
   // (SynthOptions::MotionBlur()).
   kShake,
+  // A session that starts off the sweep's map and turns onto it: the camera
+  // stands at (0, -0.4, 1.35) m (the middle of the sweep's track) looking
+  // south (away from everything the sweep sees) for the first 15% of the
+  // sequence, turns east and on to north (the sweep's view) over the next
+  // 60% with a cosine profile of at most 20 deg/s, and looks north, swinging
+  // a little, for the rest. Sequences shorter than 23.6 s start less than
+  // 180 degrees from north (the turn's peak stays at 20 deg/s). The atlas's
+  // test (track/module/atlas.h): a new map, then a merge into the sweep's.
+  kTurn,
 };
 
-// "loop", "sweep", "rotation", "shake".
+// "loop", "sweep", "rotation", "shake", "turn".
 std::string TrajectoryKindName(TrajectoryKind kind);
 // Parses a name of TrajectoryKindName; false when unknown.
 bool ParseTrajectoryKind(const std::string& name, TrajectoryKind* kind);

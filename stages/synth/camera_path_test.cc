@@ -14,9 +14,10 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 // The kinds within the hand-held speed bounds; shake is the fast exception.
 const TrajectoryKind kKinds[] = {TrajectoryKind::kLoop, TrajectoryKind::kSweep,
-                                 TrajectoryKind::kRotation};
+                                 TrajectoryKind::kRotation, TrajectoryKind::kTurn};
 const TrajectoryKind kAllKinds[] = {TrajectoryKind::kLoop, TrajectoryKind::kSweep,
-                                    TrajectoryKind::kRotation, TrajectoryKind::kShake};
+                                    TrajectoryKind::kRotation, TrajectoryKind::kShake,
+                                    TrajectoryKind::kTurn};
 // Short (tests), default, the benchmark's 600, and long sequences.
 const int kFrameCounts[] = {2, 10, 60, 120, 300, 539, 540, 600, 1000, 1500, 3000};
 
@@ -55,6 +56,21 @@ TEST(CameraPath, TimestampsAndSamplesFollowTheContinuousPath) {
   }
   EXPECT_TRUE(MakeTrajectory(TrajectoryKind::kLoop, 0, 30.0).empty());
   EXPECT_EQ(MakeTrajectory(TrajectoryKind::kLoop, 1, 30.0).size(), 1u);
+}
+
+TEST(CameraPath, TurnStartsLookingAwayFromTheSweepAndEndsLookingAtIt) {
+  for (int frames : {720, 1500}) {
+    const Trajectory turn = MakeTrajectory(TrajectoryKind::kTurn, frames, 30.0);
+    const Eigen::Vector3d north = Eigen::Vector3d::UnitY();
+    // Looking south for the first 15% (within the hand's swings).
+    for (size_t i = 0; i < turn.size() * 15 / 100; ++i) {
+      EXPECT_LT(Forward(turn[i].T_world_cam).dot(north), -0.85) << frames << " frame " << i;
+    }
+    // Looking north over the last quarter, as the sweep does.
+    for (size_t i = turn.size() * 3 / 4 + 1; i < turn.size(); ++i) {
+      EXPECT_GT(Forward(turn[i].T_world_cam).dot(north), 0.85) << frames << " frame " << i;
+    }
+  }
 }
 
 TEST(CameraPath, QuaternionsKeepTheirSign) {
@@ -155,7 +171,8 @@ TEST(CameraPath, SpeedsAreHandHeld) {
       }
       EXPECT_LE(max_speed, 0.45) << TrajectoryKindName(kind) << " " << frames;
       EXPECT_LE(max_turn_rate, 30 * kDeg) << TrajectoryKindName(kind) << " " << frames;
-      if (frames >= 300 && kind != TrajectoryKind::kRotation) {
+      // Rotation and turn stand in place (but for the hand's bob).
+      if (frames >= 300 && kind != TrajectoryKind::kRotation && kind != TrajectoryKind::kTurn) {
         EXPECT_GE(max_speed, 0.15) << TrajectoryKindName(kind) << " " << frames;
       }
     }

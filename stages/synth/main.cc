@@ -19,8 +19,9 @@ void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
          "Camera path: loop (closed loop, ends at its start), sweep (there and back), rotation "
          "(pan in place), shake (fast hand-held roll/pitch/yaw shaking in place, 40-140 deg/s with "
          "tremor; "
-         "motion blur on by default)")
-      ->check(CLI::IsMember({"loop", "sweep", "rotation", "shake"}))
+         "motion blur on by default), turn (stands looking south, turns to look north: onto the "
+         "sweep's view)")
+      ->check(CLI::IsMember({"loop", "sweep", "rotation", "shake", "turn"}))
       ->default_str(rrslam::synth::TrajectoryKindName(o->trajectory));
   app.add_option("--frames", o->frames, "Number of frames [1, 100000]")->capture_default_str();
   app.add_option("--fps", o->fps, "Frame rate, Hz; frame i is at i / fps seconds")

@@ -78,6 +78,11 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
                  "beyond it, by max(10 cm, 15%), round its pixel) from at least this many "
                  "viewpoints 5 cm apart, and in 3x as many frames as it measured a surface there")
       ->capture_default_str();
+  app.add_option("--new-map-after", o->atlas.new_map_after_s,
+                 "Restore mapping: seconds of camera time without relocalizing in the "
+                 "--load-map map after which a new map is started and merged into it where "
+                 "they meet (negative: never, wait as ORB-SLAM2)")
+      ->capture_default_str();
   // Departures from ORB-SLAM2; docs/track.md gives the measurements.
   app.add_option("--close-tracked", o->tracker.close_tracked,
                  "Keyframe when fewer close points are tracked (ORB-SLAM2: 100; the default "

@@ -301,7 +301,10 @@ bool TrackOptions::Check(std::string* why) const {
     return fail("--max-frames = " + std::to_string(max_frames) + "; must be 0 (all) or >= 2");
   }
   std::string module_why;
-  if (!tracker.Check(&module_why) || !local_mapping.Check(&module_why)) return fail(module_why);
+  if (!tracker.Check(&module_why) || !local_mapping.Check(&module_why) ||
+      !atlas.Check(&module_why)) {
+    return fail(module_why);
+  }
   if (restore_close_tracked < 0) {
     return fail("--restore-close-tracked = " + std::to_string(restore_close_tracked) +
                 "; must be >= 0");
@@ -350,7 +353,8 @@ nlohmann::json TrackOptions::ToJson() const {
           {"localization_only", localization_only},
           {"changed_point_views", local_mapping.changed_point_min_views},
           {"changed_point_ratio", local_mapping.changed_point_min_found_ratio},
-          {"changed_point_absent", local_mapping.changed_point_min_absent}};
+          {"changed_point_absent", local_mapping.changed_point_min_absent},
+          {"new_map_after_s", atlas.new_map_after_s}};
 }
 
 namespace {
@@ -484,9 +488,13 @@ class TrackSession {
                                          tracker_options_);
     closer_ =
         std::make_unique<LoopCloser>(*sensor_, vocabulary_, &map_, database_.get(), mapper_.get());
-    if (options_.loop_closing) {
-      mapper_->SetKeyFrameSink([closer = closer_.get()](KeyFrame* kf) { closer->Enqueue(kf); });
+    if (!options_.load_map.empty() && mapping_ && options_.atlas.new_map_after_s >= 0) {
+      atlas_ = std::make_unique<Atlas>(*sensor_, vocabulary_, options_.atlas);
     }
+    mapper_->SetKeyFrameSink([this](KeyFrame* kf) {
+      if (options_.loop_closing) closer_->Enqueue(kf);
+      if (atlas_) atlas_->Enqueue(kf);  // Checked only while the loaded map is aside.
+    });
     camera_ = MapCameraFrom(settings_, width_, height_);
   }
 
@@ -575,6 +583,7 @@ class TrackSession {
       depth = std::move(images.depth_metres);
     }
     if (realtime_ && options_.pace) Pace(timestamp);
+    if (atlas_) ServeAtlas();
 
     const auto start = SteadyClock::now();
     if (!use_features_) {
@@ -593,6 +602,11 @@ class TrackSession {
       startup.first_pose_frame = static_cast<int64_t>(index);
     }
     if (tracker_->reset_requested()) ResetMap(k);
+    if (atlas_ && !tracked && startup.first_pose_frame < 0 && !atlas_->holds_loaded_map() &&
+        timestamp - sequence_.frame(frames_.front()).rgb_timestamp >=
+            options_.atlas.new_map_after_s) {
+      StartNewMap(index, timestamp);
+    }
     tracking_ms_.push_back(MillisecondsSince(start));
     if (!realtime_ && new_keyframe) {
       // In step, but on a thread (and so a heap) of their own, as in realtime
@@ -630,6 +644,73 @@ class TrackSession {
     map_.Clear();
     database_->Clear();
     tracker_->Reset();
+  }
+
+  // Atlas: no relocalization in the loaded map within --new-map-after; the
+  // loaded map is set aside and the next frame starts a new map.
+  void StartNewMap(size_t index, double timestamp) {
+    mapper_->Reset();
+    closer_->Reset();
+    {
+      std::lock_guard<std::mutex> lock(map_.mutex());
+      atlas_->SetLoadedMapAside(&map_, database_.get());
+    }
+    tracker_->StartNewMap();
+    tracker_->SetMappingRule(options_.tracker.close_tracked, false);
+    new_map_frame_ = static_cast<int64_t>(index);
+    new_map_timestamp_ = timestamp;
+    spdlog::warn("track: no frame relocalized in {} within {} s; a new map starts after frame {}",
+                 options_.load_map.string(), options_.atlas.new_map_after_s, index);
+  }
+
+  // Atlas: the new map's keyframes looked for in the loaded map (between
+  // frames, in the tracking thread); merged where two agree.
+  void ServeAtlas() {
+    for (KeyFrame* kf : atlas_->TakeQueued()) {
+      bool agreed = false;
+      {
+        std::lock_guard<std::mutex> lock(map_.mutex());
+        agreed = atlas_->Check(kf);
+      }
+      if (agreed && MergeMaps()) return;
+    }
+  }
+
+  // The new map into the loaded one, with local mapping paused and loop
+  // closing's state (of the new map alone) dropped.
+  bool MergeMaps() {
+    closer_->Reset();
+    mapper_->Pause();
+    const AtlasMerge* merge = nullptr;
+    {
+      std::lock_guard<std::mutex> lock(map_.mutex());
+      merge = atlas_->Merge(&map_, database_.get());
+      if (merge != nullptr) {
+        tracker_->MoveWorld(merge->overlap.T_a_b);
+        tracker_->SetMappingRule(options_.restore_close_tracked, true);
+        RequireMapInvariants(map_, "after the merge");
+        std::vector<MapPoint*> loaded_points;
+        for (MapPoint* p : map_.MapPoints()) {
+          if (p->id() < loaded_.next_map_point_id) loaded_points.push_back(p);
+        }
+        mapper_->WatchLoadedPoints(loaded_points);
+      }
+    }
+    mapper_->Resume();
+    if (merge == nullptr) return false;
+    spdlog::info(
+        "track: new map merged into {} at {:.6f} s: keyframe {} matched {} ({} points), {} "
+        "points fused, {:.0f} ms",
+        options_.load_map.string(), merge->timestamp, merge->overlap.b_keyframe->id(),
+        merge->overlap.a_keyframe->id(), merge->overlap.matches, merge->weld.points_fused,
+        merge->ms);
+    return true;
+  }
+
+  // The map that holds the loaded objects: the atlas's while it keeps the
+  // loaded map aside, else the tracked one.
+  const Map& LoadedObjectsMap() const {
+    return atlas_ && atlas_->holds_loaded_map() ? atlas_->loaded_map() : map_;
   }
 
   void CheckTrackingStarted() const {
@@ -709,9 +790,16 @@ class TrackSession {
                                 {"next_map_point_id", loaded_.next_map_point_id}};
     }
     const std::string path = options_.save_map.string();
-    RequireMapInvariants(map_, "(" + path + " not saved)");
+    // A new map that never met the loaded one is not saved in its place: the
+    // loaded map is (a file of several maps is not written yet).
+    const Map& saved = LoadedObjectsMap();
+    if (&saved != &map_) {
+      spdlog::warn("track: the new map ({} keyframes) never met {}; {} keeps the loaded map only",
+                   map_.num_keyframes(), options_.load_map.string(), path);
+    }
+    RequireMapInvariants(saved, "(" + path + " not saved)");
     const MapData data =
-        ToMapData(map_, camera_, vocabulary_, options_.vocabulary.filename().string(),
+        ToMapData(saved, camera_, vocabulary_, options_.vocabulary.filename().string(),
                   bow_levels_up_, DumpJson(metadata));
     ValidateMapData(data, path + " (before saving)");
     const MapFileInfo info = WriteMapFileAt(map_output_->temp_path(), data, path);
@@ -755,6 +843,7 @@ class TrackSession {
     report["timings"] = TimingsReport();
     report["startup"] = StartupReport();
     report["map"] = MapReport();
+    report["atlas"] = AtlasReport();
     report["peak_rss_mb"] = PeakRssMegabytes();
     return report;
   }
@@ -855,12 +944,15 @@ class TrackSession {
   // Loaded objects still in the map, and objects this run added.
   nlohmann::json MapReport() const {
     size_t kept_keyframes = 0, kept_points = 0, added_keyframes = 0, added_points = 0;
+    const Map& loaded = LoadedObjectsMap();
+    for (const KeyFrame* kf : loaded.KeyFrames()) {
+      kept_keyframes += kf->id() < loaded_.next_keyframe_id;
+    }
+    for (const MapPoint* p : loaded.MapPoints()) kept_points += p->id() < loaded_.next_map_point_id;
     for (const KeyFrame* kf : map_.KeyFrames()) {
-      (kf->id() < loaded_.next_keyframe_id ? kept_keyframes : added_keyframes) += 1;
+      added_keyframes += kf->id() >= loaded_.next_keyframe_id;
     }
-    for (const MapPoint* p : map_.MapPoints()) {
-      (p->id() < loaded_.next_map_point_id ? kept_points : added_points) += 1;
-    }
+    for (const MapPoint* p : map_.MapPoints()) added_points += p->id() >= loaded_.next_map_point_id;
     return {{"loaded", options_.load_map.string()},
             {"loaded_identity", loaded_.identity},
             {"mode", options_.load_map.empty()    ? "new map"
@@ -880,6 +972,40 @@ class TrackSession {
             {"file_bytes", map_file_bytes_}};
   }
 
+  // Maps started and merged (run.json "atlas"); poses of T_a_b as
+  // [qw, qx, qy, qz, tx, ty, tz] (x_loaded = T_a_b * x_new).
+  nlohmann::json AtlasReport() const {
+    nlohmann::json merges = nlohmann::json::array();
+    if (!atlas_) return {{"enabled", false}, {"maps_started", 0}, {"merges", merges}};
+    for (const AtlasMerge& m : atlas_->merges()) {
+      const Rigid3d& T = m.overlap.T_a_b;
+      merges.push_back({{"timestamp", m.timestamp},
+                        {"frame", frames_.at(m.frame_id)},
+                        {"first_match_timestamp", m.first_match_timestamp},
+                        {"keyframe", m.overlap.b_keyframe->id()},
+                        {"matched_keyframe", m.overlap.a_keyframe->id()},
+                        {"matches", m.overlap.matches},
+                        {"keyframes_checked", m.keyframes_checked},
+                        {"keyframes_matched", m.keyframes_matched},
+                        {"points_fused", m.weld.points_fused},
+                        {"welding_ba_ms", m.weld.bundle_adjustment.ms},
+                        {"ms", m.ms},
+                        {"T_a_b",
+                         {T.rotation.w(), T.rotation.x(), T.rotation.y(), T.rotation.z(),
+                          T.translation.x(), T.translation.y(), T.translation.z()}}});
+    }
+    const bool started = new_map_frame_ >= 0;
+    return {{"enabled", true},
+            {"new_map_after_s", options_.atlas.new_map_after_s},
+            {"maps_started", started ? 1 : 0},
+            {"new_map_after_frame", new_map_frame_},
+            {"new_map_timestamp", started ? nlohmann::json(new_map_timestamp_) : nlohmann::json()},
+            {"keyframes_checked", atlas_->keyframes_checked()},
+            {"check", ToJson(SummarizeTimings(atlas_->check_ms()))},
+            {"merges", merges},
+            {"unmerged", atlas_->holds_loaded_map()}};
+  }
+
   // The map and the folder are committed together, the map first: a failure
   // before leaves both as they were (the --load-map file too, when the map
   // replaces it); only a failure between the two renames leaves the new map
@@ -890,6 +1016,12 @@ class TrackSession {
   }
 
   void LogSummary() const {
+    if (atlas_ && atlas_->holds_loaded_map()) {
+      spdlog::warn(
+          "track: the new map never met {}: {} and KeyFrameTrajectory.txt are in the new map's "
+          "frame (its first keyframe's camera), not the loaded map's",
+          options_.load_map.string(), (options_.out / "CameraTrajectory.txt").string());
+    }
     if (summary_.lost > 0) {
       spdlog::warn("track: {} of {} frames lost (first at {:.6f} s); they are left out of {}",
                    summary_.lost, summary_.frames, summary_.lost_timestamps.front(),
@@ -924,6 +1056,9 @@ class TrackSession {
   // The SLAM objects (BuildModules, LoadMap); the modules after the map.
   Map map_;
   std::unique_ptr<KeyFrameDatabase> database_;
+  // With --load-map and mapping, unless --new-map-after < 0; before the
+  // modules, whose threads hand it keyframes.
+  std::unique_ptr<Atlas> atlas_;
   int bow_levels_up_ = 0;
   TrackerOptions tracker_options_;
   std::unique_ptr<LocalMapper> mapper_;
@@ -931,6 +1066,8 @@ class TrackSession {
   std::unique_ptr<LoopCloser> closer_;
   MapCamera camera_;
   LoadedMap loaded_;
+  int64_t new_map_frame_ = -1;  // Sequence index of the last frame lost before a new map.
+  double new_map_timestamp_ = 0;
   // The frame loop (TrackFrames).
   std::unique_ptr<ImagePrefetcher> prefetcher_;
   std::unique_ptr<OrbExtractor> extractor_;

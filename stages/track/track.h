@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "stages/track/module/atlas.h"
 #include "stages/track/module/local_mapper.h"
 #include "stages/track/module/tracker.h"
 
@@ -73,6 +74,7 @@ struct TrackOptions {
   //   local_mapping.changed_point_min_views        --changed-point-views
   //   local_mapping.changed_point_min_found_ratio  --changed-point-ratio
   //   local_mapping.changed_point_min_absent       --changed-point-absent
+  //   atlas.new_map_after_s                        --new-map-after / new_map_after_s
   // The session sets the fields that follow from the inputs (max_keyframe_gap
   // from Camera.fps, bow_levels_up from the vocabulary, localization_only,
   // restore_mapping, close_tracked with --load-map): their values here are
@@ -80,6 +82,10 @@ struct TrackOptions {
   // defaults says so (docs/track.md, "Departures from ORB-SLAM2").
   TrackerOptions tracker;
   LocalMapperOptions local_mapping;
+  // Restore mapping (--load-map without --localization-only): a new map when
+  // the first frames do not relocalize, merged into the loaded one where
+  // they meet (module/atlas.h).
+  AtlasOptions atlas;
   // tracker.close_tracked when mapping on a loaded map (restore mapping, with
   // --load-map). ORB-SLAM2's 100: on the synthetic changed room, 300 there
   // culled 9 of the 18 loaded keyframes, added 16 and doubled the loaded

@@ -102,6 +102,70 @@ void Map::Clear() {
   root_ = nullptr;
 }
 
+void Map::MoveObjectsTo(Map* to) {
+  if (!to->keyframes_.empty() || !to->map_points_.empty()) {
+    throw std::invalid_argument("MoveObjectsTo: the receiving map has objects");
+  }
+  const size_t next_keyframe = keyframes_.size(), next_point = map_points_.size();
+  std::swap(keyframes_, to->keyframes_);
+  std::swap(map_points_, to->map_points_);
+  std::swap(keyframe_in_map_, to->keyframe_in_map_);
+  std::swap(map_point_in_map_, to->map_point_in_map_);
+  std::swap(num_keyframes_, to->num_keyframes_);
+  std::swap(num_map_points_, to->num_map_points_);
+  std::swap(root_, to->root_);
+  ReserveIds(next_keyframe, next_point);
+}
+
+namespace {
+
+// Index of the first slot that both vectors fill, or -1.
+template <typename T>
+int64_t FirstTakenId(const std::vector<std::unique_ptr<T>>& here,
+                     const std::vector<std::unique_ptr<T>>& from) {
+  for (size_t i = 0; i < from.size(); ++i) {
+    if (from[i] != nullptr && i < here.size() && here[i] != nullptr) return static_cast<int64_t>(i);
+  }
+  return -1;
+}
+
+// Moves every object of `from` into `here` at its index; `in` likewise.
+template <typename T>
+void MoveSlots(std::vector<std::unique_ptr<T>>* from, std::vector<uint8_t>* from_in,
+               std::vector<std::unique_ptr<T>>* here, std::vector<uint8_t>* here_in) {
+  if (here->size() < from->size()) {
+    here->resize(from->size());
+    here_in->resize(from->size(), 0);
+  }
+  for (size_t i = 0; i < from->size(); ++i) {
+    if ((*from)[i] == nullptr) continue;
+    (*here)[i] = std::move((*from)[i]);
+    (*here_in)[i] = (*from_in)[i];
+  }
+  from->clear();
+  from_in->clear();
+}
+
+}  // namespace
+
+void Map::Absorb(Map* from) {
+  const int64_t keyframe = FirstTakenId(keyframes_, from->keyframes_);
+  const int64_t point = FirstTakenId(map_points_, from->map_points_);
+  if (keyframe >= 0 || point >= 0) {
+    throw std::invalid_argument(
+        keyframe >= 0 ? "Absorb: keyframe id " + std::to_string(keyframe) + " is taken in both maps"
+                      : "Absorb: map point id " + std::to_string(point) + " is taken in both maps");
+  }
+  MoveSlots(&from->keyframes_, &from->keyframe_in_map_, &keyframes_, &keyframe_in_map_);
+  MoveSlots(&from->map_points_, &from->map_point_in_map_, &map_points_, &map_point_in_map_);
+  num_keyframes_ += from->num_keyframes_;
+  num_map_points_ += from->num_map_points_;
+  if (from->root_ != nullptr) root_ = from->root_;
+  from->num_keyframes_ = 0;
+  from->num_map_points_ = 0;
+  from->root_ = nullptr;
+}
+
 void Map::AddObservation(MapPoint* point, KeyFrame* keyframe, uint32_t index) {
   point->AddObservation(keyframe, index);
   keyframe->SetMapPoint(index, point);

@@ -112,6 +112,19 @@ class Map {
   // elsewhere stay valid.
   void Clear();
 
+  // Atlas (module/atlas.h): every object of this map, culled ones too,
+  // moves to `to` with its id, membership and root; `to` must have created
+  // no object (throws std::invalid_argument otherwise). This map is left
+  // empty, its next ids unchanged, so that objects created here afterwards
+  // never share an id with those moved.
+  void MoveObjectsTo(Map* to);
+  // The reverse, for a merge: every object of `from` joins this map at its
+  // id, which must be free here (throws std::invalid_argument naming the
+  // first taken id, and moves nothing); `from`'s root becomes this map's
+  // root (the merged map's world is `from`'s) and `from` is left empty.
+  // The caller first moves this map's objects into `from`'s world and hangs
+  // this map's spanning tree from one of `from`'s keyframes.
+  void Absorb(Map* from);
   // The lock of realtime mode (see the file comment).
   std::mutex& mutex() const { return mutex_; }
 

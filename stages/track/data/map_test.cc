@@ -261,6 +261,57 @@ TEST_F(MapTest, ClearDiscardsEverythingAndTheNextKeyFrameIsTheRoot) {
   EXPECT_TRUE(Consistent());
 }
 
+TEST_F(MapTest, ObjectsMovedAsideKeepTheirIdsAndNewOnesFollowThem) {
+  MakeKeyFrames(3);
+  Share(0, 1, 20);
+  Share(1, 2, 20);
+  const std::vector<MapPoint*> points = map_.MapPoints();
+  Map aside;
+  map_.MoveObjectsTo(&aside);
+  EXPECT_EQ(map_.num_keyframes(), 0u);
+  EXPECT_EQ(map_.num_map_points(), 0u);
+  EXPECT_EQ(map_.root(), nullptr);
+  EXPECT_EQ(map_.num_created_keyframes(), 3u);  // Ids stay reserved.
+  EXPECT_EQ(map_.keyframe_by_id(1), nullptr);
+  EXPECT_EQ(aside.num_keyframes(), 3u);
+  EXPECT_EQ(aside.num_map_points(), 40u);
+  EXPECT_EQ(aside.root(), keyframes_[0]);
+  EXPECT_EQ(aside.keyframe_by_id(2), keyframes_[2]);
+  for (const MapPoint* p : points) EXPECT_FALSE(p->bad());  // Moved, not discarded.
+  EXPECT_TRUE(testing::MapIsConsistent(aside));
+  EXPECT_TRUE(Consistent());
+  // A new map grows after the reserved ids.
+  MakeKeyFrames(1);
+  EXPECT_EQ(keyframes_.back()->id(), 3u);
+  EXPECT_EQ(map_.root(), keyframes_.back());
+  EXPECT_THROW(map_.MoveObjectsTo(&aside), std::invalid_argument);  // aside has objects.
+}
+
+TEST_F(MapTest, AbsorbingTakesEveryObjectAndTheOtherMapsRoot) {
+  MakeKeyFrames(2);
+  Share(0, 1, 20);
+  Map loaded;
+  map_.MoveObjectsTo(&loaded);
+  MakeKeyFrames(2);  // Ids 2 and 3: the new map.
+  Share(2, 3, 20);
+  map_.Absorb(&loaded);
+  EXPECT_EQ(map_.num_keyframes(), 4u);
+  EXPECT_EQ(map_.num_map_points(), 40u);
+  EXPECT_EQ(map_.root(), keyframes_[0]);  // The loaded map's world.
+  EXPECT_EQ(map_.keyframe_by_id(1), keyframes_[1]);
+  EXPECT_EQ(loaded.num_keyframes(), 0u);
+  EXPECT_EQ(loaded.num_created_keyframes(), 0u);
+  // Two parts: the new map's root (2) has no parent yet, which the
+  // invariants allow (a part made without neighbours).
+  EXPECT_TRUE(Consistent()) << Violation();
+
+  Map clash;
+  testing::MakeGridKeyFrame(&clash, sensor_, 10, Rigid3d::Identity(), rng_);  // Id 0: taken.
+  EXPECT_THROW(map_.Absorb(&clash), std::invalid_argument);
+  EXPECT_EQ(clash.num_created_keyframes(), 1u);  // Nothing moved.
+  EXPECT_EQ(map_.num_keyframes(), 4u);
+}
+
 // Keyframes 0 <- 1 <- 2 in the spanning tree, each sharing 20 points with
 // the one before.
 class CullingProtectionTest : public MapTest {

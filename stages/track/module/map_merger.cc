@@ -8,18 +8,36 @@
 namespace rrslam {
 namespace {
 
-struct Hypothesis {
-  KeyFrame* b_keyframe;
-  KeyFrame* a_keyframe;
-  Rigid3d T_a_b;
-  int matches;
-};
+// Every keyframe and point of `map` moved into another world frame
+// (x_new = T_new_old * x_old); culled keyframes keep their pose relative to
+// their parent, which moves with it.
+void MoveLiveMap(const Rigid3d& T_new_old, Map* map) {
+  const Rigid3d T_old_new = T_new_old.Inverse();
+  for (KeyFrame* kf : map->KeyFrames()) kf->SetPose(kf->T_cam_world() * T_old_new);
+  for (MapPoint* p : map->MapPoints()) {
+    p->SetPosition(T_new_old * p->position_world());
+    p->SetNormalAndDistances(T_new_old.rotation * p->normal(), p->min_distance(),
+                             p->max_distance());
+  }
+}
 
-// The best-matching candidate of a for one keyframe of b, if any passes.
-std::optional<Hypothesis> CheckKeyFrame(const SensorModel& sensor, const Map& a,
-                                        const KeyFrameDatabase& a_database, KeyFrame* kb,
-                                        const MapMergeOptions& options) {
-  std::optional<Hypothesis> best;
+// `new_root`'s part of the spanning tree re-rooted at it (the parent links
+// from it up to its root reversed), then hung from `parent`.
+void HangTreeFrom(KeyFrame* new_root, KeyFrame* parent) {
+  std::vector<KeyFrame*> path;
+  for (KeyFrame* k = new_root; k != nullptr; k = k->parent()) path.push_back(k);
+  for (size_t i = path.size() - 1; i > 0; --i) path[i]->SetParent(path[i - 1]);
+  new_root->SetParent(parent);
+  new_root->AddLoopEdge(parent);
+  parent->AddLoopEdge(new_root);
+}
+
+}  // namespace
+
+std::optional<KeyFrameOverlap> MatchKeyFrame(const SensorModel& sensor, const Map& a,
+                                             const KeyFrameDatabase& a_database, KeyFrame* kb,
+                                             const MapMergeOptions& options) {
+  std::optional<KeyFrameOverlap> best;
   for (KeyFrame* ka : a_database.DetectRelocalizationCandidates(kb->bow())) {
     LoopCandidateMatch match;
     if (!CheckLoopCandidate(sensor, options.check, a.num_created_map_points(), kb, ka, &match) ||
@@ -28,36 +46,35 @@ std::optional<Hypothesis> CheckKeyFrame(const SensorModel& sensor, const Map& a,
     }
     if (!best || match.matches > best->matches) {
       // match.T_cam_world: kb's camera in a's world.
-      best = Hypothesis{kb, ka, match.T_cam_world.Inverse() * kb->T_cam_world(), match.matches};
+      best =
+          KeyFrameOverlap{kb, ka, match.T_cam_world.Inverse() * kb->T_cam_world(), match.matches};
     }
   }
   return best;
 }
 
-bool Agree(const Hypothesis& x, const Hypothesis& y, const Eigen::Vector3d& centre_b,
-           const MapMergeOptions& options) {
+bool OverlapsAgree(const KeyFrameOverlap& x, const KeyFrameOverlap& y,
+                   const MapMergeOptions& options) {
+  const Eigen::Vector3d centre_b = x.b_keyframe->camera_centre();
   const double metres = (x.T_a_b * centre_b - y.T_a_b * centre_b).norm();
   const double degrees = x.T_a_b.rotation.angularDistance(y.T_a_b.rotation) * 180.0 / M_PI;
   return metres <= options.agree_metres && degrees <= options.agree_degrees;
 }
 
-}  // namespace
-
 std::optional<MapOverlap> FindOverlap(const SensorModel& sensor, const Map& a,
                                       const KeyFrameDatabase& a_database, const Map& b,
                                       const MapMergeOptions& options) {
-  std::vector<Hypothesis> passed;
+  std::vector<KeyFrameOverlap> passed;
   for (KeyFrame* kb : b.KeyFrames()) {
     if (kb->bad()) continue;
-    if (auto h = CheckKeyFrame(sensor, a, a_database, kb, options)) passed.push_back(*h);
+    if (auto h = MatchKeyFrame(sensor, a, a_database, kb, options)) passed.push_back(*h);
   }
   std::optional<MapOverlap> overlap;
-  for (const Hypothesis& h : passed) {
+  for (const KeyFrameOverlap& h : passed) {
     if (overlap && h.matches <= overlap->matches) continue;
-    const Eigen::Vector3d centre_b = h.b_keyframe->camera_centre();
     int agreeing = 0;
-    for (const Hypothesis& other : passed) {
-      if (&other != &h && Agree(h, other, centre_b, options)) ++agreeing;
+    for (const KeyFrameOverlap& other : passed) {
+      if (&other != &h && OverlapsAgree(h, other, options)) ++agreeing;
     }
     if (agreeing == 0) continue;
     overlap = MapOverlap{h.T_a_b,   h.a_keyframe->id(), h.b_keyframe->id(),
@@ -92,6 +109,18 @@ MapWeldStats WeldJoinedMap(const SensorModel& sensor, Map* joined, KeyFrameId fi
   welding.first_free_keyframe = first_b_keyframe;
   stats.bundle_adjustment = RefineMap(sensor, joined, welding);
   return stats;
+}
+
+MapWeldStats MergeLiveMaps(const SensorModel& sensor, const KeyFrameOverlap& overlap, Map* a,
+                           Map* b, KeyFrameDatabase* b_database, const MapMergeOptions& options) {
+  const KeyFrameId first_b_keyframe = a->num_created_keyframes();
+  const MapPointId first_b_point = a->num_created_map_points();
+  MoveLiveMap(overlap.T_a_b, b);
+  HangTreeFrom(overlap.b_keyframe, overlap.a_keyframe);
+  const std::vector<KeyFrame*> a_keyframes = a->KeyFrames();
+  b->Absorb(a);
+  b_database->AddAll(a_keyframes);
+  return WeldJoinedMap(sensor, b, first_b_keyframe, first_b_point, options);
 }
 
 }  // namespace rrslam

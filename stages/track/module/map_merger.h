@@ -53,6 +53,24 @@ struct MapOverlap {
   int matched_keyframes = 0;  // Keyframes of b that passed the check.
 };
 
+// Step 1 for one keyframe of b: the candidate of a (a's keyframe database,
+// bag of words) that passes CheckLoopCandidate with the most matches, as
+// the transform it gives; nullopt when none passes. The caller holds the
+// maps' locks.
+struct KeyFrameOverlap {
+  KeyFrame* b_keyframe = nullptr;
+  KeyFrame* a_keyframe = nullptr;
+  Rigid3d T_a_b;
+  int matches = 0;
+};
+std::optional<KeyFrameOverlap> MatchKeyFrame(const SensorModel& sensor, const Map& a,
+                                             const KeyFrameDatabase& a_database, KeyFrame* kb,
+                                             const MapMergeOptions& options = {});
+// Whether two keyframes' transforms agree (MapMergeOptions::agree_*), at
+// x's keyframe of b.
+bool OverlapsAgree(const KeyFrameOverlap& x, const KeyFrameOverlap& y,
+                   const MapMergeOptions& options = {});
+
 // Step 1; nullopt when no keyframe of b passes with another agreeing.
 std::optional<MapOverlap> FindOverlap(const SensorModel& sensor, const Map& a,
                                       const KeyFrameDatabase& a_database, const Map& b,
@@ -67,5 +85,17 @@ struct MapWeldStats {
 // points with ids >= first_b_point came from map b.
 MapWeldStats WeldJoinedMap(const SensorModel& sensor, Map* joined, KeyFrameId first_b_keyframe,
                            MapPointId first_b_point, const MapMergeOptions& options = {});
+
+// Online merge (module/atlas.h), steps 2 and 3 on live maps: `b` (the map
+// being tracked) is moved into a's world by overlap.T_a_b, its spanning tree
+// re-rooted at overlap.b_keyframe and hung from overlap.a_keyframe (a loop
+// edge between the two), then `b` absorbs every object of `a` (Map::Absorb:
+// b's ids must all be above a's), a's keyframes join `b_database`, and the
+// joined map is welded. Pointers to b's objects stay valid; poses held
+// outside the maps (the tracker's) must be moved by T_a_b too. The caller
+// holds b's lock; no other thread may use the maps.
+MapWeldStats MergeLiveMaps(const SensorModel& sensor, const KeyFrameOverlap& overlap, Map* a,
+                           Map* b, KeyFrameDatabase* b_database,
+                           const MapMergeOptions& options = {});
 
 }  // namespace rrslam

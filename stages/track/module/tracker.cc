@@ -153,6 +153,23 @@ void Tracker::StartOnLoadedMap() {
   options_.reset_max_keyframes = -1;
 }
 
+void Tracker::StartNewMap() {
+  state_ = State::kNotInitialized;
+  velocity_.reset();
+  last_good_T_cam_world_.reset();
+  reference_keyframe_ = nullptr;
+  local_keyframes_.clear();
+  local_points_.clear();
+  last_frame_tracked_ = false;
+  options_.reset_max_keyframes = given_reset_max_keyframes_;
+}
+
+void Tracker::MoveWorld(const Rigid3d& T_new_old) {
+  const Rigid3d T_old_new = T_new_old.Inverse();
+  if (last_frame_.has_pose()) last_frame_.SetPose(last_frame_.T_cam_world() * T_old_new);
+  if (last_good_T_cam_world_) last_good_T_cam_world_ = *last_good_T_cam_world_ * T_old_new;
+}
+
 void Tracker::CountChangeEvidence() {
   if (current_.depth_metres.empty()) return;
   const uint64_t stamp = current_.id() + 1;

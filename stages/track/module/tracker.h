@@ -160,6 +160,19 @@ class Tracker {
   // (relocalization_index_ms() says how long that took).
   void StartOnLoadedMap();
   double relocalization_index_ms() const { return relocalization_index_ms_; }
+  // Atlas (module/atlas.h): the loaded map was set aside; the next frame
+  // initializes a new map (its camera the new world frame), which resets as
+  // ORB-SLAM2's would (reset_max_keyframes as given). Frames before stay lost.
+  void StartNewMap();
+  // The keyframe rule's close_tracked and restore_mapping from now on (the
+  // atlas: a new map is mapped as a new map, the merged one as a loaded one).
+  void SetMappingRule(int close_tracked, bool restore_mapping) {
+    options_.close_tracked = close_tracked;
+    options_.restore_mapping = restore_mapping;
+  }
+  // The map was moved into another world frame (x_new = T_new_old * x_old):
+  // the poses the tracker holds follow. Call between frames.
+  void MoveWorld(const Rigid3d& T_new_old);
   // Localization only: the last frame was tracked as visual odometry.
   bool visual_odometry() const { return vo_; }
   // Frames tracked as visual odometry (localization only).
@@ -220,6 +233,7 @@ class Tracker {
   double relocalization_index_ms_ = 0;
   Relocalizer relocalizer_;
   bool reset_requested_ = false;
+  int given_reset_max_keyframes_ = options_.reset_max_keyframes;  // Before StartOnLoadedMap.
   SolveCounts pose_solves_;
   size_t resets_ = 0;
   int matches_inliers_ = 0;
