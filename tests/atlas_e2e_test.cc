@@ -104,16 +104,34 @@ TEST_F(AtlasPipelineTest, SessionThatNeverMeetsTheMapKeepsTrackingAndKeepsTheLoa
   const double new_map = run.at("atlas").at("new_map_timestamp").get<double>();
   for (const auto& t : run.at("lost_timestamps")) EXPECT_LE(t.get<double>(), new_map);
   EXPECT_LT(run.at("counts").at("lost").get<int>(), 60);
-  // The saved map is the loaded one (a file of several maps is not written).
+  // The file keeps the loaded map as it was and the new map beside it, in
+  // its own frame (format 1.1).
   const nlohmann::json& map = run.at("map");
   EXPECT_EQ(map.at("keyframes_culled").get<int>(), 0);
   EXPECT_EQ(map.at("map_points_culled").get<int>(), 0);
+  EXPECT_EQ(map.at("other_maps_saved").get<int>(), 1);
   const auto verify = testing::RunTool("mapstore", "verify " + Quote(saved));
   ASSERT_EQ(verify.exit_code, 0) << verify.output;
-  EXPECT_NE(
-      verify.output.find(std::to_string(map.at("keyframes_loaded").get<int>()) + " keyframes"),
-      std::string::npos)
+  EXPECT_NE(verify.output.find(": ok (" + std::to_string(map.at("keyframes_loaded").get<int>()) +
+                               " keyframes"),
+            std::string::npos)
       << verify.output;
+  EXPECT_NE(verify.output.find("other map 1 (its own world frame): " +
+                               std::to_string(run.at("counts").at("keyframes").get<int>()) +
+                               " keyframes"),
+            std::string::npos)
+      << verify.output;
+
+  // The next session on that file meets the loaded map: merged, and the
+  // other map is carried along, not lost.
+  const fs::path next = path("next-session"), next_map = path("next.rrm");
+  const auto again =
+      Track(path("turn"), next, "--load-map " + Quote(saved) + " --save-map " + Quote(next_map));
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  const nlohmann::json next_run = ReadJson(next / "run.json");
+  EXPECT_EQ(next_run.at("atlas").at("merges").size(), 1u);
+  EXPECT_EQ(next_run.at("map").at("other_maps_loaded").get<int>(), 1);
+  EXPECT_EQ(next_run.at("map").at("other_maps_saved").get<int>(), 1);
 }
 
 TEST_F(AtlasPipelineTest, NegativeNewMapAfterWaitsForTheLoadedMapAsOrbSlam2) {

@@ -158,6 +158,14 @@ struct MapData {
   uint64_t next_map_point_id = 0;
   // JSON: producer (tool, version) and the options of the run that saved it.
   std::string metadata;
+  // Format 1.1: maps of the same place, camera and vocabulary kept beside
+  // this one, each in a world frame of its own and complete in itself (ids
+  // may repeat across maps; their own other_maps empty): a session whose new
+  // map never met the loaded one (docs/track.md, "Several maps in one
+  // session"). At most kMaxOtherMaps.
+  std::vector<MapData> other_maps;
 };
+
+inline constexpr size_t kMaxOtherMaps = 99;
 
 }  // namespace rrslam

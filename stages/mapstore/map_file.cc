@@ -82,7 +82,20 @@ void Store(uint8_t* p, T value) {
   StoreLittleEndian<T>(p, value);
 }
 
-std::string SectionText(int section) { return std::string("section ") + kSectionNames[section]; }
+// The other maps' sections (format 1.1) are named "<k>:<short name>" for
+// the k-th other map: "1:kp" (16 bytes hold at most "99:graph").
+constexpr std::array<const char*, kNumSections> kOtherMapSectionNames = {
+    "meta", "kf", "kp", "desc", "kfp", "bow", "fv", "graph", "mp", "obs"};
+
+// A section's name in the table: the map's own, or its k-th other map's.
+std::string SectionName(size_t map, int section) {
+  return map == 0 ? std::string(kSectionNames[section])
+                  : std::to_string(map) + ":" + kOtherMapSectionNames[section];
+}
+
+std::string SectionText(int section, size_t map = 0) {
+  return "section " + SectionName(map, section);
+}
 
 // ---------------------------------------------------------------------------
 // Counts and sizes
@@ -222,24 +235,44 @@ void WriteMapPoint(const MapPointRecord& mp, uint8_t* p) {
 
 // Where every section goes: sizes and offsets from the counts (sections in
 // table order, each at its alignment), the header's size.
-struct MapLayout {
+// Where one map's sections go in the payload.
+struct MapPartLayout {
+  const MapData* map = nullptr;
   MapCounts counts;
   std::array<uint64_t, kNumSections> size{}, offset{};
+};
+
+// The file's layout: the map's sections, then each of its other maps'.
+struct MapLayout {
+  std::vector<MapPartLayout> parts;
   uint64_t payload_size = 0;
   size_t header_size = 0;
+  size_t num_sections() const { return parts.size() * kNumSections; }
 };
 
 MapLayout LayOut(const MapData& map) {
+  if (map.other_maps.size() > kMaxOtherMaps) {
+    throw std::invalid_argument("EncodeMap: " + std::to_string(map.other_maps.size()) +
+                                " other maps; at most " + std::to_string(kMaxOtherMaps));
+  }
   MapLayout l;
-  l.counts = CountMap(map);
-  l.size[kMeta] = kMetaFixedSize + map.vocabulary.name.size() + map.metadata.size();
-  for (int i = kKeyframes; i < kNumSections; ++i) l.size[i] = ExpectedSectionSize(i, l.counts);
-  for (int i = 0; i < kNumSections; ++i) {
-    l.offset[i] = AlignUp(l.payload_size, SectionAlignment(i));
-    l.payload_size = l.offset[i] + l.size[i];
+  std::vector<const MapData*> maps = {&map};
+  for (const MapData& other : map.other_maps) maps.push_back(&other);
+  for (const MapData* m : maps) {
+    MapPartLayout& part = l.parts.emplace_back();
+    part.map = m;
+    part.counts = CountMap(*m);
+    part.size[kMeta] = kMetaFixedSize + m->vocabulary.name.size() + m->metadata.size();
+    for (int i = kKeyframes; i < kNumSections; ++i) {
+      part.size[i] = ExpectedSectionSize(i, part.counts);
+    }
+    for (int i = 0; i < kNumSections; ++i) {
+      part.offset[i] = AlignUp(l.payload_size, SectionAlignment(i));
+      l.payload_size = part.offset[i] + part.size[i];
+    }
   }
   l.payload_size = AlignUp(l.payload_size, 8);
-  l.header_size = kBaseHeaderSize + kTableStart + kSectionEntrySize * kNumSections;
+  l.header_size = kBaseHeaderSize + kTableStart + kSectionEntrySize * l.num_sections();
   return l;
 }
 
@@ -412,38 +445,49 @@ struct EncodedHeader {
   MapFileInfo info;
 };
 
-// Streams the payload of `map` laid out as `layout` to `sink`; the header.
-EncodedHeader EncodeWith(const MapData& map, const MapLayout& layout, PayloadSink sink) {
+// Streams the payload laid out as `layout` to `sink`; the header. A map
+// with other maps is format 1.1, one without 1.0 (the same bytes as before
+// 1.1).
+EncodedHeader EncodeWith(const MapLayout& layout, PayloadSink sink) {
   PayloadWriter w(std::move(sink));
   EncodedHeader out;
-  out.info.major = kMapFormat.major;
-  out.info.minor = kMapFormat.minor;
+  FormatSpec format = kMapFormat;
+  if (layout.parts.size() > 1) format.minor = 1;
+  out.info.major = format.major;
+  out.info.minor = format.minor;
   out.info.file_size = layout.header_size + layout.payload_size;
-  for (int i = 0; i < kNumSections; ++i) {
-    w.BeginSection(layout.offset[i]);
-    if (i == kMeta) {
-      std::vector<uint8_t> meta(layout.size[kMeta], 0);
-      WriteMeta(map, layout.counts, meta.data());
-      w.Bytes(meta.data(), meta.size());
-    } else {
-      EncodeSection(map, i, &w);
+  for (size_t m = 0; m < layout.parts.size(); ++m) {
+    const MapPartLayout& part = layout.parts[m];
+    for (int i = 0; i < kNumSections; ++i) {
+      w.BeginSection(part.offset[i]);
+      if (i == kMeta) {
+        std::vector<uint8_t> meta(part.size[kMeta], 0);
+        WriteMeta(*part.map, part.counts, meta.data());
+        w.Bytes(meta.data(), meta.size());
+      } else {
+        EncodeSection(*part.map, i, &w);
+      }
+      out.info.sections.push_back(
+          {SectionName(m, i), part.offset[i], part.size[i], w.EndSection(part.size[i])});
     }
-    out.info.sections.push_back(
-        {kSectionNames[i], layout.offset[i], layout.size[i], w.EndSection(layout.size[i])});
   }
   const uint64_t payload_checksum = w.Finish(layout.payload_size);
 
-  std::vector<uint8_t> fields(kTableStart + kSectionEntrySize * kNumSections, 0);
-  Store<uint32_t>(fields.data(), kNumSections);
-  for (int i = 0; i < kNumSections; ++i) {
+  const size_t count = layout.num_sections();
+  std::vector<uint8_t> fields(kTableStart + kSectionEntrySize * count, 0);
+  Store<uint32_t>(fields.data(), static_cast<uint32_t>(count));
+  for (size_t i = 0; i < count; ++i) {
     const MapSectionInfo& section = out.info.sections[i];
+    if (section.name.size() > kSectionNameSize) {
+      throw std::logic_error("EncodeMap: section name " + section.name + " is too long");
+    }
     uint8_t* e = fields.data() + kTableStart + kSectionEntrySize * i;
     std::memcpy(e, section.name.data(), section.name.size());
     Store<uint64_t>(e + 16, section.offset);
     Store<uint64_t>(e + 24, section.size);
     Store<uint64_t>(e + 32, section.checksum);
   }
-  out.bytes = BuildBinaryHeader(kMapFormat, fields, layout.payload_size, payload_checksum);
+  out.bytes = BuildBinaryHeader(format, fields, layout.payload_size, payload_checksum);
   if (out.bytes.size() != layout.header_size) throw std::logic_error("EncodeMap: header size");
   return out;
 }
@@ -558,41 +602,54 @@ ParsedHeader ParseHeader(std::span<const uint8_t> file, const std::string& sourc
 // The known sections' bytes, by Section.
 using Sections = std::array<std::span<const uint8_t>, kNumSections>;
 
-// Finds a known section in the table (unknown ones are ignored: a newer
-// minor version may add sections).
-const MapSectionInfo& FindSection(const ParsedHeader& h, int section, const std::string& source) {
+// Finds a known section of the map (0) or of its k-th other map in the
+// table (unknown ones are ignored: a newer minor version may add sections);
+// nullptr when absent.
+const MapSectionInfo* FindSection(const ParsedHeader& h, int section, const std::string& source,
+                                  size_t map = 0) {
+  const std::string name = SectionName(map, section);
   const MapSectionInfo* found = nullptr;
   for (const MapSectionInfo& s : h.info.sections) {
-    if (s.name != kSectionNames[section]) continue;
-    if (found != nullptr) throw DataError(source + ": " + SectionText(section) + " listed twice");
+    if (s.name != name) continue;
+    if (found != nullptr) {
+      throw DataError(source + ": " + SectionText(section, map) + " listed twice");
+    }
     found = &s;
   }
-  if (found == nullptr) throw DataError(source + ": " + SectionText(section) + " is missing");
-  return *found;
+  return found;
 }
 
 // A known section's bytes, checked against its checksum.
 std::span<const uint8_t> CheckedSection(const ParsedHeader& h, int section,
-                                        const std::string& source) {
-  const MapSectionInfo& found = FindSection(h, section, source);
-  const std::span<const uint8_t> bytes = h.payload.subspan(found.offset, found.size);
-  if (Checksum64(bytes) != found.checksum) {
-    throw DataError(source + ": " + SectionText(section) + ": checksum mismatch (file corrupt)");
+                                        const std::string& source, size_t map = 0) {
+  const MapSectionInfo* found = FindSection(h, section, source, map);
+  if (found == nullptr) {
+    throw DataError(source + ": " + SectionText(section, map) + " is missing");
+  }
+  const std::span<const uint8_t> bytes = h.payload.subspan(found->offset, found->size);
+  if (Checksum64(bytes) != found->checksum) {
+    throw DataError(source + ": " + SectionText(section, map) +
+                    ": checksum mismatch (file corrupt)");
   }
   return bytes;
 }
 
-// The known sections, each checked against its checksum, then the whole
-// payload against its own (which catches corruption between sections and in
-// sections this version does not know).
-Sections CheckedSections(const ParsedHeader& h, const std::string& source) {
+// The known sections of a map (0) or of its k-th other map, each checked
+// against its checksum.
+Sections CheckedSections(const ParsedHeader& h, const std::string& source, size_t map = 0) {
   Sections s;
-  for (int i = 0; i < kNumSections; ++i) s[i] = CheckedSection(h, i, source);
+  for (int i = 0; i < kNumSections; ++i) s[i] = CheckedSection(h, i, source, map);
+  return s;
+}
+
+// The whole payload against its checksum, once every known section was:
+// catches corruption between sections and in sections this version does
+// not know.
+void CheckPayload(const ParsedHeader& h, const std::string& source) {
   if (Checksum64(h.payload) != h.payload_checksum) {
     throw DataError(source +
                     ": payload checksum mismatch outside the known sections (file corrupt)");
   }
-  return s;
 }
 
 MapData ParseMeta(std::span<const uint8_t> m, const std::string& source, MapCounts* counts) {
@@ -866,16 +923,32 @@ void ParseRecords(const Sections& s, const MapCounts& c, const MappedFile* mappi
   release(kObservations);
 }
 
+// One map's checked sections parsed (`where` names it in errors).
+MapData ParsePart(const Sections& s, const std::string& where, const MappedFile* mapping) {
+  MapCounts c;
+  MapData map = ParseMeta(s[kMeta], where, &c);
+  CheckCounts(s, c, where);
+  ParseRecords(s, c, mapping, &map);
+  return map;
+}
+
 // `mapping`, when non-null, is the mapped file that `file` is.
 MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info,
                  const MappedFile* mapping) {
   const ParsedHeader h = ParseHeader(file, source);
-  const Sections s = CheckedSections(h, source);
-  MapCounts c;
-  MapData map = ParseMeta(s[kMeta], source, &c);
-  CheckCounts(s, c, source);
+  // Every known section's checksum, the map's and its other maps' (format
+  // 1.1, while "<k>:meta" is listed), then the payload's.
+  std::vector<Sections> parts = {CheckedSections(h, source)};
+  for (size_t k = 1; k <= kMaxOtherMaps && FindSection(h, kMeta, source, k) != nullptr; ++k) {
+    parts.push_back(CheckedSections(h, source, k));
+  }
+  CheckPayload(h, source);
   if (mapping != nullptr) mapping->Release(h.payload);  // Read once by the checksums.
-  ParseRecords(s, c, mapping, &map);
+  MapData map = ParsePart(parts[0], source, mapping);
+  for (size_t k = 1; k < parts.size(); ++k) {
+    map.other_maps.push_back(
+        ParsePart(parts[k], source + " (other map " + std::to_string(k) + ")", mapping));
+  }
   ValidateMapData(map, source);
   if (info != nullptr) *info = h.info;
   return map;
@@ -891,7 +964,7 @@ std::vector<uint8_t> EncodeMap(const MapData& map) {
   std::vector<uint8_t> file;
   file.reserve(layout.header_size + layout.payload_size);
   file.resize(layout.header_size, 0);  // The header, once the checksums are known.
-  const EncodedHeader header = EncodeWith(map, layout, [&](std::span<const uint8_t> bytes) {
+  const EncodedHeader header = EncodeWith(layout, [&](std::span<const uint8_t> bytes) {
     file.insert(file.end(), bytes.begin(), bytes.end());
   });
   std::memcpy(file.data(), header.bytes.data(), header.bytes.size());
@@ -904,7 +977,7 @@ MapFileInfo WriteMapFileAt(const std::filesystem::path& file, const MapData& map
   FileSink sink(file, name);
   sink.Skip(layout.header_size);
   EncodedHeader header =
-      EncodeWith(map, layout, [&](std::span<const uint8_t> bytes) { sink.Append(bytes); });
+      EncodeWith(layout, [&](std::span<const uint8_t> bytes) { sink.Append(bytes); });
   sink.WriteAt(0, header.bytes);
   sink.Close();
   return std::move(header.info);
@@ -1339,6 +1412,20 @@ void MapValidator::CheckEveryKeypointListed() const {
 
 void ValidateMapData(const MapData& map, const std::string& source) {
   MapValidator(map, source).Run();
+  if (map.other_maps.size() > kMaxOtherMaps) {
+    throw DataError(source + ": " + std::to_string(map.other_maps.size()) +
+                    " other maps; at most " + std::to_string(kMaxOtherMaps));
+  }
+  for (size_t k = 0; k < map.other_maps.size(); ++k) {
+    const MapData& other = map.other_maps[k];
+    const std::string where = source + " (other map " + std::to_string(k + 1) + ")";
+    if (!other.other_maps.empty()) throw DataError(where + ": has other maps of its own");
+    if (!(other.camera == map.camera) || !other.vocabulary.SameTree(map.vocabulary) ||
+        other.bow_levels_up != map.bow_levels_up) {
+      throw DataError(where + ": another camera, vocabulary or BoW grouping than the map's");
+    }
+    MapValidator(other, where).Run();
+  }
 }
 
 }  // namespace rrslam

@@ -278,7 +278,7 @@ TEST(MapFile, AcceptsNewerMinorWithUnknownSectionAndFields) {
   const MapData map = MakeTestMap(9);
   const std::vector<uint8_t> old = EncodeMap(map);
   const uint32_t header_size = HeaderSize(old);
-  // A 1.1 file: one more section ("extra", 24 bytes at the end of the
+  // A 1.2 file: one more section ("extra", 24 bytes at the end of the
   // payload) and 16 bytes of new header fields after the table.
   std::vector<uint8_t> fields(old.begin() + kBaseHeaderSize, old.begin() + header_size);
   const uint32_t count = LoadLittleEndian<uint32_t>(fields.data());
@@ -296,10 +296,10 @@ TEST(MapFile, AcceptsNewerMinorWithUnknownSectionAndFields) {
   StoreLittleEndian<uint32_t>(file.data() + 12,
                               static_cast<uint32_t>(kBaseHeaderSize + fields.size()));
   std::memcpy(file.data() + kBaseHeaderSize, fields.data(), fields.size());
-  Reseal(&file, 1);
+  Reseal(&file, 2);
   MapFileInfo info;
   const MapData back = ParseMap(file, "newer.rrm", &info);
-  EXPECT_EQ(info.minor, 1);
+  EXPECT_EQ(info.minor, 2);
   EXPECT_EQ(info.sections.size(), 11u);
   EXPECT_EQ(info.sections.back().name, "extra");
   ExpectMapsEqual(map, back);
@@ -317,6 +317,55 @@ TEST(MapFile, RejectsFlippedBitInEachSection) {
     bad[header + s.offset + s.size / 2] ^= 0x10;
     ExpectParseError(bad, "map.rrm: section " + s.name + ": checksum mismatch (file corrupt)");
   }
+}
+
+// Format 1.1: maps kept beside the map (an atlas session that never merged).
+MapData MapWithOtherMaps() {
+  MapData map = MakeTestMap(11);
+  map.other_maps.push_back(MakeTestMap(12));
+  map.other_maps.push_back(MakeTestMap(13));
+  return map;
+}
+
+TEST(MapFile, OtherMapsRoundTripAsFormatOneOne) {
+  const MapData map = MapWithOtherMaps();
+  MapFileInfo info;
+  const MapData back = ParseMap(EncodeMap(map), "atlas.rrm", &info);
+  EXPECT_EQ(info.minor, 1);
+  ASSERT_EQ(info.sections.size(), 30u);
+  EXPECT_EQ(info.sections[10].name, "1:meta");
+  EXPECT_EQ(info.sections[23].name, "2:desc");
+  EXPECT_EQ(info.sections[23].offset % 32, 0u);
+  ExpectMapsEqual(map, back);
+  ASSERT_EQ(back.other_maps.size(), 2u);
+  ExpectMapsEqual(map.other_maps[0], back.other_maps[0]);
+  ExpectMapsEqual(map.other_maps[1], back.other_maps[1]);
+  // A map alone stays 1.0, byte for byte as before 1.1.
+  MapData alone = map;
+  alone.other_maps.clear();
+  EXPECT_EQ(ReadMapFileInfo(EncodeMap(alone), "alone.rrm").minor, 0);
+}
+
+TEST(MapFile, RejectsFlippedBitInAnOtherMapsSection) {
+  const std::vector<uint8_t> file = EncodeMap(MapWithOtherMaps());
+  const MapSectionInfo s = Section(file, "2:obs");
+  std::vector<uint8_t> bad = file;
+  bad[HeaderSize(file) + s.offset + s.size / 2] ^= 0x10;
+  ExpectParseError(bad, "map.rrm: section 2:obs: checksum mismatch (file corrupt)");
+}
+
+TEST(MapFile, RejectsAnOtherMapOfAnotherCameraOrVocabulary) {
+  MapData map = MapWithOtherMaps();
+  map.other_maps[1].camera.fx += 1;
+  ExpectParseError(EncodeMap(map),
+                   "map.rrm (other map 2): another camera, vocabulary or BoW "
+                   "grouping than the map's");
+  map = MapWithOtherMaps();
+  map.other_maps[0].vocabulary.content_hash ^= 1;
+  EXPECT_THROW(ValidateMapData(map, "m"), DataError);
+  map = MapWithOtherMaps();
+  map.other_maps[0].other_maps.push_back(MakeTestMap(14));
+  EXPECT_THROW(ValidateMapData(map, "m"), DataError);
 }
 
 TEST(MapFile, RejectsCorruptPadding) {
@@ -722,6 +771,9 @@ TEST(MapFile, WriteFuzzSeeds) {
   o.bow_words = 2;
   WriteMapFile(std::filesystem::path(dir) / "small.rrm", MakeTestMap(1, o));
   WriteMapFile(std::filesystem::path(dir) / "empty.rrm", MapData{});
+  MapData atlas = MakeTestMap(1, o);
+  atlas.other_maps.push_back(MakeTestMap(2, o));
+  WriteMapFile(std::filesystem::path(dir) / "atlas.rrm", atlas);
 }
 
 }  // namespace

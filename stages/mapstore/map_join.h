@@ -29,7 +29,8 @@ void MoveMap(const Rigid3d& T_new_old, MapData* map);
 // b), which becomes a child of `a_keyframe` (an id of a); both get a loop
 // edge, so the place where the maps were joined is never culled. Nothing
 // is fused: the maps share no point and no covisibility edge yet. The
-// camera, vocabulary, BoW grouping and metadata are a's. Throws DataError
+// camera, vocabulary, BoW grouping and metadata are a's; a's other maps,
+// then b's, are kept beside it (map_data.h). Throws DataError
 // naming `source` when either keyframe id is not in its map or the joined
 // next ids exceed MaxNextMapId; the result passes ValidateMapData.
 MapData JoinMaps(MapData a, MapData b, const Rigid3d& T_a_b, uint64_t a_keyframe,

@@ -56,6 +56,19 @@ TEST(JoinMapsTest, MovesAndRenumbersTheSecondMapAndHangsItUnderTheFirst) {
       j.keyframes[3].loop_edges.end());
 }
 
+TEST(JoinMapsTest, MapsKeptBesideEitherStayBesideTheJoinedMap) {
+  MapData a = MakeTestMap(1), b = MakeTestMap(2);
+  a.other_maps.push_back(MakeTestMap(3));
+  b.other_maps.push_back(MakeTestMap(4));
+  const size_t b_other_keyframes = b.other_maps[0].keyframes.size();
+  const MapData j = JoinMaps(a, b, Rigid3d(), a.keyframes[0].id, b.keyframes[0].id, "test");
+  ASSERT_EQ(j.other_maps.size(), 2u);
+  EXPECT_EQ(j.other_maps[0].keyframes.size(), a.other_maps[0].keyframes.size());
+  EXPECT_EQ(j.other_maps[1].keyframes.size(), b_other_keyframes);
+  EXPECT_EQ(j.other_maps[1].keyframes[0].id, b.other_maps[0].keyframes[0].id);  // Not moved.
+  EXPECT_NO_THROW(ValidateMapData(j, "joined"));
+}
+
 TEST(JoinMapsTest, KeyFrameNotInItsMapIsADataError) {
   const MapData a = MakeTestMap(1), b = MakeTestMap(2);
   EXPECT_THROW(JoinMaps(a, b, Rigid3d(), 999999, b.keyframes[0].id, "test"), DataError);

@@ -229,8 +229,16 @@ std::string RunMapInfo(const MapInfoOptions& options) {
   }
   if (problem.empty()) {
     try {
-      ParseMap(bytes, name);
+      const MapData map = ParseMap(bytes, name);
       j["structure"] = "ok";
+      if (!map.other_maps.empty()) {
+        nlohmann::ordered_json others = nlohmann::ordered_json::array();
+        for (const MapData& other : map.other_maps) {
+          others.push_back(
+              {{"keyframes", other.keyframes.size()}, {"map_points", other.map_points.size()}});
+        }
+        j["other_maps"] = others;
+      }
     } catch (const DataError& e) {
       j["structure"] = e.what();
       problem = e.what();
@@ -257,9 +265,15 @@ std::string RunMapVerify(const MapVerifyOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   const MapData map = ReadMapFileReservingHeap(options.map, 2);
-  const std::string text = options.map.string() + ": ok (" + std::to_string(map.keyframes.size()) +
-                           " keyframes, " + std::to_string(map.map_points.size()) +
-                           " map points)\n";
+  std::string text = options.map.string() + ": ok (" + std::to_string(map.keyframes.size()) +
+                     " keyframes, " + std::to_string(map.map_points.size()) + " map points)";
+  for (size_t k = 0; k < map.other_maps.size(); ++k) {
+    const MapData& other = map.other_maps[k];
+    text += "; other map " + std::to_string(k + 1) +
+            " (its own world frame): " + std::to_string(other.keyframes.size()) + " keyframes, " +
+            std::to_string(other.map_points.size()) + " map points";
+  }
+  text += "\n";
   std::cout << text << std::flush;
   return text;
 }

@@ -116,6 +116,7 @@ std::string RunMapMerge(const MapMergeCommandOptions& o) {
   const std::string metadata = Metadata(o, *overlap);
   MapData joined_data = JoinMaps(std::move(data_a), std::move(data_b), overlap->T_a_b,
                                  overlap->a_keyframe, overlap->b_keyframe, o.out.string());
+  std::vector<MapData> other_maps = std::move(joined_data.other_maps);  // Kept as they are.
   LiveMap joined(vocabulary);
   const int levels_up = joined_data.bow_levels_up;
   Load(std::move(joined_data), sensor, vocabulary, o.out.string(), &joined);
@@ -124,8 +125,9 @@ std::string RunMapMerge(const MapMergeCommandOptions& o) {
     throw std::logic_error("the merged map breaks an invariant (" + o.out.string() +
                            " not written): " + why);
   }
-  const MapData merged = ToMapData(joined.map, camera, vocabulary, o.vocabulary.filename().string(),
-                                   levels_up, metadata);
+  MapData merged = ToMapData(joined.map, camera, vocabulary, o.vocabulary.filename().string(),
+                             levels_up, metadata);
+  merged.other_maps = std::move(other_maps);
   WriteMapFile(o.out, merged);
 
   std::ostringstream text;

@@ -514,6 +514,8 @@ class TrackSession {
     loaded_.next_map_point_id = data.next_map_point_id;
     loaded_.keyframes = data.keyframes.size();
     loaded_.map_points = data.map_points.size();
+    // Maps kept beside it (format 1.1) are not tracked in; saved again.
+    carried_maps_ = std::move(data.other_maps);
     LoadMapData(std::move(data), *sensor_, vocabulary_, bow_levels_up_, &map_, database_.get(),
                 source);
     startup.map_load_ms = MillisecondsSince(map_start);
@@ -521,6 +523,10 @@ class TrackSession {
     tracker_->StartOnLoadedMap();
     startup.relocalization_index_ms = tracker_->relocalization_index_ms();
     if (!options_.localization_only) mapper_->WatchLoadedPoints(map_.MapPoints());
+    if (!carried_maps_.empty()) {
+      spdlog::info("track: {} keeps {} other map(s) beside it: not tracked in, saved again", source,
+                   carried_maps_.size());
+    }
     spdlog::info("track: map {} loaded in {:.1f} ms: {} keyframes, {} map points ({})", source,
                  startup.map_load_ms, loaded_.keyframes, loaded_.map_points,
                  options_.localization_only ? "localization only" : "restore mapping");
@@ -790,20 +796,30 @@ class TrackSession {
                                 {"next_map_point_id", loaded_.next_map_point_id}};
     }
     const std::string path = options_.save_map.string();
-    // A new map that never met the loaded one is not saved in its place: the
-    // loaded map is (a file of several maps is not written yet).
+    // A new map that never met the loaded one is saved beside it, as another
+    // map of the file (format 1.1), in its own world frame.
     const Map& saved = LoadedObjectsMap();
     if (&saved != &map_) {
-      spdlog::warn("track: the new map ({} keyframes) never met {}; {} keeps the loaded map only",
-                   map_.num_keyframes(), options_.load_map.string(), path);
+      spdlog::warn(
+          "track: the new map ({} keyframes) never met {}; {} keeps it beside the loaded map, in "
+          "its own frame",
+          map_.num_keyframes(), options_.load_map.string(), path);
     }
     RequireMapInvariants(saved, "(" + path + " not saved)");
-    const MapData data =
-        ToMapData(saved, camera_, vocabulary_, options_.vocabulary.filename().string(),
-                  bow_levels_up_, DumpJson(metadata));
+    MapData data = ToMapData(saved, camera_, vocabulary_, options_.vocabulary.filename().string(),
+                             bow_levels_up_, DumpJson(metadata));
+    data.other_maps = carried_maps_;
+    if (&saved != &map_) {
+      RequireMapInvariants(map_, "(" + path + " not saved)");
+      metadata.erase("loaded_map");
+      data.other_maps.push_back(ToMapData(map_, camera_, vocabulary_,
+                                          options_.vocabulary.filename().string(), bow_levels_up_,
+                                          DumpJson(metadata)));
+    }
     ValidateMapData(data, path + " (before saving)");
     const MapFileInfo info = WriteMapFileAt(map_output_->temp_path(), data, path);
     map_file_bytes_ = info.file_size;
+    other_maps_saved_ = data.other_maps.size();
     saved_identity_ = MapIdentity(info);
     map_save_ms_ = MillisecondsSince(save_start);
     spdlog::info("track: map written for {} in {:.1f} ms ({} keyframes, {} map points, {} bytes)",
@@ -966,6 +982,8 @@ class TrackSession {
             {"map_points_culled", loaded_.map_points - kept_points},
             {"changed_points_culled", mapper_->counters().culled_changed_points},
             {"visual_odometry_frames", tracker_->visual_odometry_frames()},
+            {"other_maps_loaded", carried_maps_.size()},
+            {"other_maps_saved", other_maps_saved_},
             {"saved", options_.save_map.string()},
             {"saved_identity", saved_identity_},
             {"save_ms", map_save_ms_},
@@ -1066,7 +1084,8 @@ class TrackSession {
   std::unique_ptr<LoopCloser> closer_;
   MapCamera camera_;
   LoadedMap loaded_;
-  int64_t new_map_frame_ = -1;  // Sequence index of the last frame lost before a new map.
+  std::vector<MapData> carried_maps_;  // The loaded file's other maps (format 1.1).
+  int64_t new_map_frame_ = -1;         // Sequence index of the last frame lost before a new map.
   double new_map_timestamp_ = 0;
   // The frame loop (TrackFrames).
   std::unique_ptr<ImagePrefetcher> prefetcher_;
@@ -1080,6 +1099,7 @@ class TrackSession {
   MapRefinementStats refinement_;
   TrackSummary summary_;
   double map_save_ms_ = 0;
+  size_t other_maps_saved_ = 0;
   size_t map_file_bytes_ = 0;
   std::string saved_identity_;
 };
