@@ -9,11 +9,16 @@ namespace rrslam {
 namespace {
 
 // Every keyframe and point of `map` moved into another world frame
-// (x_new = T_new_old * x_old); culled keyframes keep their pose relative to
-// their parent, which moves with it.
+// (x_new = T_new_old * x_old): keyframes not yet in the map too (realtime
+// mode: created by the tracker, with their points in the map, and queued
+// for local mapping); culled keyframes keep their pose relative to their
+// parent, which moves with it.
 void MoveLiveMap(const Rigid3d& T_new_old, Map* map) {
   const Rigid3d T_old_new = T_new_old.Inverse();
-  for (KeyFrame* kf : map->KeyFrames()) kf->SetPose(kf->T_cam_world() * T_old_new);
+  for (KeyFrameId id = 0; id < map->num_created_keyframes(); ++id) {
+    KeyFrame* kf = map->keyframe_by_id(id);
+    if (kf != nullptr && !kf->bad()) kf->SetPose(kf->T_cam_world() * T_old_new);
+  }
   for (MapPoint* p : map->MapPoints()) {
     p->SetPosition(T_new_old * p->position_world());
     p->SetNormalAndDistances(T_new_old.rotation * p->normal(), p->min_distance(),
