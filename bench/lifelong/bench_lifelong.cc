@@ -86,11 +86,20 @@ struct Sequence {
   fs::path dir, settings, vocab, features;
 };
 
+// rrslam-track on `seq` into `out` (from its features file, or its images
+// when it has none), with `extra` flags.
 std::string TrackCommand(const Options& o, const Sequence& seq, const fs::path& out,
                          const std::string& extra) {
   return (o.bin / "rrslam-track").string() + " --quiet --sequence " + Quote(seq.dir) +
-         " --settings " + Quote(seq.settings) + " --vocab " + Quote(seq.vocab) + " --features " +
-         Quote(seq.features) + " --out " + Quote(out) + " " + extra;
+         " --settings " + Quote(seq.settings) + " --vocab " + Quote(seq.vocab) +
+         (seq.features.empty() ? "" : " --features " + Quote(seq.features)) + " --out " +
+         Quote(out) + " " + extra;
+}
+
+// A sequence rrslam-synth rendered into dir/name, tracked from its images
+// with the atlas's vocabulary.
+Sequence SynthSequence(const Options& o, const fs::path& dir, const std::string& name) {
+  return {name, dir / name, dir / name / "settings.yaml", o.synth_vocab, {}};
 }
 
 // One restore-mapping session's run.json "map" object, or the mapping run's.
@@ -111,12 +120,9 @@ bool RunSession(const Options& o, const Sequence& seq, int i, Session* session) 
   const fs::path dir = o.runs / seq.name;
   const fs::path out = dir / ("session-" + std::to_string(i));
   const fs::path map = dir / ("map-" + std::to_string(i) + ".rrm");
-  std::string command = (o.bin / "rrslam-track").string() + " --quiet --sequence " +
-                        Quote(seq.dir) + " --settings " + Quote(seq.settings) + " --vocab " +
-                        Quote(seq.vocab) + " --features " + Quote(seq.features) + " --max-frames " +
-                        std::to_string(o.frames) + " --out " + Quote(out) + " --save-map " +
-                        Quote(map);
-  if (i > 0) command += " --load-map " + Quote(dir / ("map-" + std::to_string(i - 1) + ".rrm"));
+  std::string extra = "--max-frames " + std::to_string(o.frames) + " --save-map " + Quote(map);
+  if (i > 0) extra += " --load-map " + Quote(dir / ("map-" + std::to_string(i - 1) + ".rrm"));
+  const std::string command = TrackCommand(o, seq, out, extra);
   if (Run(command) != 0) return false;
   const nlohmann::json m = ReadMapSummary(out / "run.json");
   const int loaded_kf = m.value("keyframes_loaded", 0),
@@ -314,10 +320,8 @@ bool RunAtlasSession(const Options& o, const fs::path& dir, const std::string& n
                      const std::string& extra, const rrslam::AteAlignment& alignment,
                      const rrslam::Trajectory& truth, AtlasRun* result) {
   const fs::path out = dir / name;
-  if (Run((o.bin / "rrslam-track").string() + " --quiet --sequence " + Quote(dir / "turn") +
-          " --settings " + Quote(dir / "turn" / "settings.yaml") + " --vocab " +
-          Quote(o.synth_vocab) + " --load-map " + Quote(dir / "sweep.rrm") + " --out " +
-          Quote(out) + " " + extra) != 0) {
+  if (Run(TrackCommand(o, SynthSequence(o, dir, "turn"), out,
+                       "--load-map " + Quote(dir / "sweep.rrm") + " " + extra)) != 0) {
     return false;
   }
   std::ifstream in(out / "run.json");
@@ -376,10 +380,8 @@ bool MeasureAtlas(const Options& o, Report* report) {
       return false;
     }
   }
-  if (Run((o.bin / "rrslam-track").string() + " --quiet --sequence " + Quote(dir / "sweep") +
-          " --settings " + Quote(dir / "sweep" / "settings.yaml") + " --vocab " +
-          Quote(o.synth_vocab) + " --out " + Quote(dir / "mapping") + " --save-map " +
-          Quote(dir / "sweep.rrm")) != 0) {
+  if (Run(TrackCommand(o, SynthSequence(o, dir, "sweep"), dir / "mapping",
+                       "--save-map " + Quote(dir / "sweep.rrm"))) != 0) {
     return false;
   }
   // The map's frame in the ground truth's world, from the mapping run.

@@ -224,6 +224,7 @@ struct LoadedMap {
   uint64_t next_map_point_id = 0;
   size_t keyframes = 0;
   size_t map_points = 0;
+  size_t other_maps = 0;  // Kept beside it in the file (format 1.1).
 };
 
 // A map file's identity: XXH3-64 of its sections' checksums (the content,
@@ -516,6 +517,7 @@ class TrackSession {
     loaded_.map_points = data.map_points.size();
     // Maps kept beside it (format 1.1) are not tracked in; saved again.
     carried_maps_ = std::move(data.other_maps);
+    loaded_.other_maps = carried_maps_.size();
     LoadMapData(std::move(data), *sensor_, vocabulary_, bow_levels_up_, &map_, database_.get(),
                 source);
     startup.map_load_ms = MillisecondsSince(map_start);
@@ -811,7 +813,7 @@ class TrackSession {
     RequireMapInvariants(saved, "(" + path + " not saved)");
     MapData data = ToMapData(saved, camera_, vocabulary_, options_.vocabulary.filename().string(),
                              bow_levels_up_, DumpJson(metadata));
-    data.other_maps = carried_maps_;
+    data.other_maps = std::move(carried_maps_);  // Saved once, not copied.
     if (&saved != &map_) {
       RequireMapInvariants(map_, "(" + path + " not saved)");
       metadata.erase("loaded_map");
@@ -985,7 +987,7 @@ class TrackSession {
             {"map_points_culled", loaded_.map_points - kept_points},
             {"changed_points_culled", mapper_->counters().culled_changed_points},
             {"visual_odometry_frames", tracker_->visual_odometry_frames()},
-            {"other_maps_loaded", carried_maps_.size()},
+            {"other_maps_loaded", loaded_.other_maps},
             {"other_maps_saved", other_maps_saved_},
             {"saved", options_.save_map.string()},
             {"saved_identity", saved_identity_},
@@ -1087,8 +1089,9 @@ class TrackSession {
   std::unique_ptr<LoopCloser> closer_;
   MapCamera camera_;
   LoadedMap loaded_;
-  std::vector<MapData> carried_maps_;  // The loaded file's other maps (format 1.1).
-  int64_t new_map_frame_ = -1;         // Sequence index of the last frame lost before a new map.
+  // The loaded file's other maps (format 1.1), until WriteMap saves them.
+  std::vector<MapData> carried_maps_;
+  int64_t new_map_frame_ = -1;  // Sequence index of the last frame lost before a new map.
   double new_map_timestamp_ = 0;
   // The frame loop (TrackFrames).
   std::unique_ptr<ImagePrefetcher> prefetcher_;
