@@ -568,6 +568,13 @@ class TrackSession {
     }
     mapper_->ProcessQueued();  // Nothing in realtime mode after Stop(); none left in batch.
     closer_->ProcessQueued();
+    if (mapping_) {
+      // Restore mapping: the change evidence of the frames after the last
+      // keyframe is judged too (where the map has the view, few keyframes
+      // are made).
+      std::lock_guard<std::mutex> lock(map_.mutex());
+      mapper_->CullChangedPoints();
+    }
     progress.Finish();
     loop_s_ = std::chrono::duration<double>(SteadyClock::now() - loop_start_).count();
   }

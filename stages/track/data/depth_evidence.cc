@@ -11,6 +11,11 @@ double DepthEvidenceGap(double z) {
   return std::max(kMinGapMetres, kMinGapRelative * z);
 }
 
+double DepthCoverGap(double z) {
+  constexpr double kMinGapMetres = 0.03, kMinGapRelative = 0.03;
+  return std::max(kMinGapMetres, kMinGapRelative * z);
+}
+
 DepthEvidence DepthEvidenceAt(const cv::Mat& depth_metres, const Eigen::Vector2d& pixel, double z) {
   // A window rather than one pixel: a point on an edge has the edge's near
   // side in its window, so a depth edge is never taken for seeing through.

@@ -22,10 +22,17 @@ enum class DepthEvidence {
 };
 
 // The depth gap (metres) that counts as "clearly beyond" a point at depth z:
-// max(10 cm, 5% of z). Kinect-like sensors' noise grows with depth (about
+// max(10 cm, 15% of z). Kinect-like sensors' noise grows with depth (about
 // 1.5e-3 z^2 m, 1.4 cm at 3 m), so the relative part keeps far points from
 // being seen through by noise; the fixed part covers mixed pixels at edges.
 double DepthEvidenceGap(double z);
+
+// The depth difference (metres) within which a map point at depth z accounts
+// for a keypoint measured near its pixel, i.e. the map already has that
+// surface: max(3 cm, 3% of z), about twice the Kinect's noise at 3 m plus
+// the map point's own error. Tighter than DepthEvidenceGap: a new object
+// standing 10 cm before a wall is new, yet not a reason to cull the wall.
+double DepthCoverGap(double z);
 
 // The evidence of `depth_metres` (CV_32F; 0 or not finite = no depth) in the
 // 5 x 5 window round `pixel` about a point at depth `z` (> 0). A window with

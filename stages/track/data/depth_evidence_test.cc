@@ -18,6 +18,12 @@ TEST(DepthEvidenceTest, GapIsTenCentimetresOrFifteenPercent) {
   EXPECT_NEAR(DepthEvidenceGap(4.0), 0.6, 1e-12);
 }
 
+TEST(DepthEvidenceTest, CoverGapIsThreeCentimetresOrThreePercentAndTighter) {
+  EXPECT_NEAR(DepthCoverGap(0.5), 0.03, 1e-12);
+  EXPECT_NEAR(DepthCoverGap(4.0), 0.12, 1e-12);
+  for (double z : {0.3, 1.0, 2.5, 6.0}) EXPECT_LT(DepthCoverGap(z), DepthEvidenceGap(z));
+}
+
 TEST(DepthEvidenceTest, SurfaceAtThePointsDepthIsPresent) {
   EXPECT_EQ(DepthEvidenceAt(Wall(1.1f), {30, 20}, kZ), DepthEvidence::kPresent);
   EXPECT_EQ(DepthEvidenceAt(Wall(0.9f), {30, 20}, kZ), DepthEvidence::kPresent);

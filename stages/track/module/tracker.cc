@@ -64,10 +64,15 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
     }
     current_.reference_keyframe = reference_keyframe_;
     if (ok && !vo_) ok = TrackLocalMap();
-    if (ok && options_.restore_mapping) CountChangeEvidence();
+    if (ok && options_.restore_mapping) {
+      CountChangeEvidence();
+      uncovered_history_.push_back(CountUncoveredClose());
+      if (uncovered_history_.size() > kLacksViewFrames) uncovered_history_.pop_front();
+    }
     if (ok && vo_) ++visual_odometry_frames_;
     if (ok && was_lost) ++relocalizations_;
     state_ = ok ? State::kOk : State::kLost;
+    if (!ok) uncovered_history_.clear();
     if (ok) {
       if (last_frame_tracked_) {
         velocity_ = current_.T_cam_world() * last_frame_.T_world_cam();
@@ -196,6 +201,44 @@ void Tracker::CountChangeEvidence() {
         break;
     }
   }
+}
+
+int Tracker::CountUncoveredClose() const {
+  const FrameFeatures& f = current_.features();
+  std::vector<uint8_t> covered(f.size(), 0);
+  const Eigen::Matrix3d& R = current_.R_cam_world();
+  const Eigen::Vector3d& t = current_.T_cam_world().translation;
+  const Eigen::Vector3d& centre = current_.camera_centre();
+  const double th = options_.local_map_search_radius;
+  std::vector<uint32_t> near;
+  for (MapPoint* point : local_points_) {
+    if (point->bad()) continue;
+    ProjectedPoint pp;
+    if (!ProjectIntoView(sensor_, R, t, centre, point, 0.5, &pp)) continue;
+    const double z = (R * point->position_world() + t).z();
+    const double gap = DepthCoverGap(z);
+    const double r = (pp.view_cos > 0.998 ? 2.5 : 4.0) * th * sensor_.pyramid.scale[pp.level];
+    near.clear();
+    f.FeaturesInArea(sensor_, pp.u, pp.v, r, 0, -1, &near);
+    for (uint32_t i : near) {
+      if (f.HasDepth(i) && std::abs(f.Depth(i) - z) < gap) covered[i] = 1;
+    }
+  }
+  int uncovered = 0;
+  for (size_t i = 0; i < f.size(); ++i) {
+    const float depth = f.Depth(i);
+    if (depth <= 0 || depth >= sensor_.th_depth || covered[i]) continue;
+    uncovered += current_.map_points[i] == nullptr || current_.outlier[i];
+  }
+  return uncovered;
+}
+
+bool Tracker::LacksView() const {
+  if (uncovered_history_.size() < kLacksViewFrames) return false;
+  for (int uncovered : uncovered_history_) {
+    if (uncovered <= options_.close_untracked) return false;
+  }
+  return true;
 }
 
 bool Tracker::TrackLocalizationOnly() {
@@ -553,9 +596,12 @@ bool Tracker::NeedNewKeyFrame() const {
   const bool c1c = matches_inliers_ < reference_matches * 0.25 || need_close;
   const bool c2 =
       (matches_inliers_ < reference_matches * ratio || need_close) && matches_inliers_ > 15;
-  const bool restore = options_.restore_mapping && c1a &&
-                       untracked_close > options_.close_untracked && matches_inliers_ > 15;
-  if (!((c1a || c1b || c1c) && (c2 || restore))) return false;
+  // Restore mapping: keyframes only where the map lacks the view (the
+  // close keypoints no map point accounts for, on kLacksViewFrames frames
+  // in a row), then also once per max_keyframe_gap frames.
+  const bool lacks_view = !options_.restore_mapping || LacksView();
+  const bool restore = options_.restore_mapping && c1a && lacks_view && matches_inliers_ > 15;
+  if (!((c1a || c1b || c1c) && ((c2 && lacks_view) || restore))) return false;
   if (mapper_idle) return true;
   mapper_->InterruptBundleAdjustment();
   return mapper_->QueueSize() < 3;

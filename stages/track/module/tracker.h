@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
@@ -92,13 +93,15 @@ struct TrackerOptions {
   // Restore mapping (a loaded map mapped on; not ORB-SLAM2, which cannot load
   // maps): what the frame's depth image (Frame::depth_metres) says about the
   // local points it predicts visible and did not match is counted
-  // (MapPoint::evidence, for LocalMapperOptions::changed_point_min_absent),
-  // and a keyframe is also made when max_keyframe_gap frames passed since
-  // the last one and more than close_untracked close keypoints are not
-  // tracked. ORB-SLAM2's rule waits for the tracked points to drop, which a
-  // loaded map covering the view never lets happen, so a changed part of the
-  // scene would get no keyframe, no points, and its old points would never
-  // be judged (LocalMapperOptions::changed_point_min_views). Redundant
+  // (MapPoint::evidence, for LocalMapperOptions::changed_point_min_absent).
+  // Keyframes are made only where the map lacks the view: more than
+  // close_untracked close keypoints that no local point accounts for
+  // (CountUncoveredClose) on LacksView's frames in a row; then ORB-SLAM2's
+  // rule applies, and also a keyframe once max_keyframe_gap frames passed
+  // since the last (ORB-SLAM2's rule waits for the tracked points to drop,
+  // which a loaded map covering the rest of the view never lets happen).
+  // A view the map has gets no keyframe however few of its points ORB
+  // matches, so sessions in the same place do not grow the map. Redundant
   // keyframes are culled as usual.
   bool restore_mapping = false;
   int vo_min_map_matches = 10;
@@ -190,6 +193,15 @@ class Tracker {
   // Restore mapping: what the frame's depth image says about the local
   // points it predicts visible and did not match (MapPoint::evidence).
   void CountChangeEvidence();
+  // Restore mapping: the close keypoints not tracked that no local point
+  // accounts for (none projects within the local-map search window at a
+  // depth within DepthCoverGap): where the map lacks the view.
+  int CountUncoveredClose() const;
+  // True when each of the last kLacksViewFrames tracked frames had more than
+  // close_untracked uncovered close keypoints: a view the map lacks stays
+  // uncovered, a blurred frame or a bad depth image passes.
+  bool LacksView() const;
+  static constexpr size_t kLacksViewFrames = 3;
   // The tracking step of localization mode; returns whether it gave a pose.
   bool TrackLocalizationOnly();
   // Marks a point as handled in the current frame's local-map search.
@@ -237,6 +249,10 @@ class Tracker {
   SolveCounts pose_solves_;
   size_t resets_ = 0;
   int matches_inliers_ = 0;
+  int uncovered_close_ = 0;
+  int seen_through_now_ = 0;
+  std::deque<int>
+      uncovered_history_;  // CountUncoveredClose() of the current frame (restore mapping).
 
   std::vector<KeyFrame*> local_keyframes_;
   std::vector<MapPoint*> local_points_;
