@@ -16,6 +16,12 @@
 // the loaded map's frame, frames lost after the merge; and a session that
 // never meets the map (the turn's first 100 frames): frames lost after its
 // new map started.
+// Kills (--kills N each): rrslam-mapstore merge of the first real sequence's
+// maps, its --out an existing map, killed (SIGKILL) at moments uniform over
+// its run; and the turn session loading and saving one map file
+// (--load-map M --save-map M), killed at moments uniform over its merge
+// (from its "merging" line to 1.2 x the merge's time). The previous map must
+// be intact every time, or the new one complete.
 // Usage: see --help; `make bench-lifelong` gives every option.
 #include <CLI/CLI.hpp>
 #include <filesystem>
@@ -27,6 +33,7 @@
 #include <vector>
 
 #include "bench/common/bench_report.h"
+#include "bench/common/save_kills.h"
 #include "common/atomic_file.h"
 #include "common/dataset.h"
 #include "common/trajectory.h"
@@ -38,16 +45,18 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
+using rrslam::bench::KillClock;
 using rrslam::bench::Quote;
 using rrslam::bench::Report;
 using rrslam::bench::Run;
+using rrslam::bench::SaveOverFile;
 
 struct Options {
   fs::path bin, runs;
   std::vector<std::string> real_names;
   std::vector<fs::path> real_dirs, real_settings, real_vocabs, real_features;
   fs::path synth_vocab;  // The atlas's synthetic sessions; empty: not measured.
-  int frames = 150, sessions = 5;
+  int frames = 150, sessions = 5, kills = 10;
   std::string machine, out_prefix, command = "make bench-lifelong";
 };
 
@@ -67,6 +76,9 @@ void BindOptions(CLI::App* app, Options* o) {
   app->add_option("--sessions", o->sessions, "Restore-mapping sessions after the mapping run")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app->add_option("--kills", o->kills, "SIGKILLs during each merge (0: none)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app->add_option("--machine", o->machine, "Machine description line");
   app->add_option("--command", o->command, "The command that made this result, for its header")
       ->capture_default_str();
@@ -232,11 +244,14 @@ bool MeasureOnlineMerge(const Options& o, const Sequence& seq, const fs::path& d
   return true;
 }
 
+// The offline merge's folder of one sequence.
+fs::path MergeDir(const Options& o, const Sequence& seq) { return o.runs / (seq.name + "-merge"); }
+
 // The offline merge of one sequence, into its section of the report.
 bool MeasureOfflineMerge(const Options& o, const Sequence& seq, Report* report) {
   const rrslam::RgbdSequence frames = rrslam::RgbdSequence::Open(seq.dir);
   const size_t n = frames.size(), first_end = n * 3 / 10, second_start = n * 6 / 10;
-  const fs::path dir = o.runs / (seq.name + "-merge");
+  const fs::path dir = MergeDir(o, seq);
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path a = dir / "a.rrm", b = dir / "b.rrm", merged = dir / "merged.rrm";
@@ -274,6 +289,52 @@ bool MeasureOfflineMerge(const Options& o, const Sequence& seq, Report* report) 
   std::ifstream merge_text(dir / "merge.txt");
   for (std::string line; std::getline(merge_text, line);) report->Note(s, line);
   return MeasureOnlineMerge(o, seq, dir, second_start, gt, report);
+}
+
+// Kills at moments uniform in [from_s, to_s] after `clock`'s origin of
+// `save` (its new_bytes and original set here: a run not killed first);
+// into section `s`.
+void MeasureKills(const Options& o, SaveOverFile save, double from_s, double to_s, KillClock clock,
+                  const std::string& marker, const std::string& note, const std::string& s,
+                  Report* report) {
+  for (const std::string& name : rrslam::bench::TemporaryFilesOf(save.target)) {
+    fs::remove(save.target.parent_path() / name);
+  }
+  fs::copy_file(save.original, save.target, fs::copy_options::overwrite_existing);
+  save.old_bytes = rrslam::ReadFileToString(save.target);
+  const rrslam::bench::KillCounts counts =
+      rrslam::bench::KillDuringSaves(save, from_s, to_s, clock, o.kills, marker);
+  rrslam::bench::AddKillCounts(counts, o.kills, note, s, report);
+}
+
+// rrslam-mapstore merge of a.rrm and b.rrm in `dir` over a copy of a.rrm,
+// killed at moments uniform over a run's time (1.1 x an unkilled run's).
+void MeasureKillsDuringOfflineMerge(const Options& o, const Sequence& seq, const fs::path& dir,
+                                    Report* report) {
+  SaveOverFile save;
+  save.original = dir / "a.rrm";
+  save.target = dir / "killed.rrm";
+  save.argv = {(o.bin / "rrslam-mapstore").string(),
+               "--quiet",
+               "merge",
+               (dir / "a.rrm").string(),
+               (dir / "b.rrm").string(),
+               "--vocab",
+               seq.vocab.string(),
+               "--settings",
+               seq.settings.string(),
+               "--out",
+               save.target.string()};
+  fs::copy_file(save.original, save.target, fs::copy_options::overwrite_existing);
+  const rrslam::bench::SaveRun unkilled =
+      rrslam::bench::RunWatchingSave(save.argv, save.target, std::nullopt);
+  save.new_bytes = rrslam::ReadFileToString(save.target);
+  const double run_s = unkilled.end_ms.value_or(0) / 1000;
+  MeasureKills(
+      o, save, 0, 1.1 * run_s, KillClock::kRunStart, "",
+      "run of " + Short(run_s) + " s (save from " + Short(unkilled.save_ms.value_or(-1) / 1000) +
+          " s); kills uniform up to 1.1 x the run's time",
+      "kill -9 during rrslam-mapstore merge (" + seq.name + ", --out an existing map)", report);
 }
 
 // The atlas's synthetic sessions (rrslam-synth's room, 640 x 480, seed 1):
@@ -368,6 +429,49 @@ void ReportMergedSession(const std::string& s, const std::string& mode, const At
                   r.lost_after_merge == 0});
 }
 
+// The turn session loading and saving one map file (a copy of the sweep's),
+// killed at moments uniform over its merge: from its "merging" line to 1.2 x
+// the merge's time in an unkilled run (batch mode: the same merge each run).
+void MeasureKillsDuringOnlineMerge(const Options& o, const fs::path& dir, Report* report) {
+  const Sequence turn = SynthSequence(o, dir, "turn");
+  SaveOverFile save;
+  save.original = dir / "sweep.rrm";
+  save.target = dir / "killed.rrm";
+  save.argv = {(o.bin / "rrslam-track").string(),
+               "--sequence",
+               turn.dir.string(),
+               "--settings",
+               turn.settings.string(),
+               "--vocab",
+               turn.vocab.string(),
+               "--out",
+               (dir / "killed-run").string(),
+               "--load-map",
+               save.target.string(),
+               "--save-map",
+               save.target.string()};
+  const std::string marker = "track: merging the new map";
+  fs::copy_file(save.original, save.target, fs::copy_options::overwrite_existing);
+  const rrslam::bench::SaveRun unkilled = rrslam::bench::RunWatchingSave(
+      save.argv, save.target, std::nullopt, KillClock::kSaveStart, marker);
+  save.new_bytes = rrslam::ReadFileToString(save.target);
+  std::ifstream in(dir / "killed-run" / "run.json");
+  const nlohmann::json merges = nlohmann::json::parse(in).at("atlas").at("merges");
+  const std::string s = "kill -9 during the online merge (turn session, --load-map M --save-map M)";
+  if (!unkilled.marker_ms || merges.empty()) {
+    report->Add(s, {"merged", 0, "merges", ">= 1", false});
+    return;
+  }
+  const double merge_s = merges.at(0).at("ms").get<double>() / 1000;
+  MeasureKills(o, save, 0, 1.2 * merge_s, KillClock::kMarker, marker,
+               "merge from " + Short(*unkilled.marker_ms / 1000) + " s for " +
+                   Short(merge_s * 1000) + " ms, save from " +
+                   Short(unkilled.save_ms.value_or(-1) / 1000) + " s, end at " +
+                   Short(unkilled.end_ms.value_or(-1) / 1000) +
+                   " s; kills uniform from the merge's first line to 1.2 x its time",
+               s, report);
+}
+
 // The atlas (online merge) on the synthetic room, into its section.
 bool MeasureAtlas(const Options& o, Report* report) {
   const fs::path dir = o.runs / "synth-atlas";
@@ -407,6 +511,7 @@ bool MeasureAtlas(const Options& o, Report* report) {
   ReportMergedSession(s, "realtime", realtime, first_overlap, report);
   report->Add(s, {"never meets the map (frames 0-99): frames lost after the new map",
                   double(never.lost_after_new), "frames", "0", never.lost_after_new == 0});
+  if (o.kills > 0) MeasureKillsDuringOnlineMerge(o, dir, report);
   return true;
 }
 
@@ -429,7 +534,11 @@ int main(int argc, char** argv) {
     const Sequence seq{o.real_names[q], o.real_dirs[q], o.real_settings[q], o.real_vocabs[q],
                        o.real_features[q]};
     if (!MeasureIdenticalSessions(o, seq, &report)) failed = true;
-    if (!MeasureOfflineMerge(o, seq, &report)) failed = true;
+    if (!MeasureOfflineMerge(o, seq, &report)) {
+      failed = true;
+    } else if (q == 0 && o.kills > 0) {
+      MeasureKillsDuringOfflineMerge(o, seq, MergeDir(o, seq), &report);
+    }
   }
   if (!o.synth_vocab.empty() && !MeasureAtlas(o, &report)) failed = true;
   rrslam::bench::WriteGoalResults(

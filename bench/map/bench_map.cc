@@ -52,6 +52,7 @@
 #include <vector>
 
 #include "bench/common/bench_report.h"
+#include "bench/common/save_kills.h"
 #include "common/atomic_file.h"
 #include "common/clock.h"
 #include "common/dataset.h"
@@ -75,11 +76,18 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::ordered_json;
+using rrslam::bench::AddKillCounts;
 using rrslam::bench::Figure;
+using rrslam::bench::KillCounts;
+using rrslam::bench::KillDuringSaves;
 using rrslam::bench::Median;
 using rrslam::bench::Quote;
 using rrslam::bench::Report;
 using rrslam::bench::Run;
+using rrslam::bench::RunWatchingSave;
+using rrslam::bench::SaveOverFile;
+using rrslam::bench::SaveRun;
+using rrslam::bench::TemporaryFilesOf;
 
 std::string TrackCommand(const fs::path& bin, const fs::path& seq, const fs::path& settings,
                          const fs::path& vocab, const fs::path& out, const std::string& extra) {
@@ -93,84 +101,6 @@ nlohmann::json ReadJson(const fs::path& p) {
 
 double Max(const std::vector<double>& v) {
   return v.empty() ? 0 : *std::max_element(v.begin(), v.end());
-}
-
-// Temporary files a save into `target` makes (rrslam::AtomicFile: the
-// target's name, a random part, ".tmp", in its folder).
-std::set<std::string> TemporaryFilesOf(const fs::path& target) {
-  std::set<std::string> out;
-  const std::string prefix = target.filename().string() + ".";
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(target.parent_path(), ec)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind(prefix, 0) == 0 && name.size() > 4 &&
-        name.compare(name.size() - 4, 4, ".tmp") == 0) {
-      out.insert(name);
-    }
-  }
-  return out;
-}
-
-// Whether a temporary file of `target` not in `before` has bytes: track
-// creates it when it starts (so that an unwritable path fails at once) and
-// writes it when it saves.
-bool SaveStarted(const fs::path& target, const std::set<std::string>& before) {
-  for (const std::string& name : TemporaryFilesOf(target)) {
-    std::error_code ec;
-    if (!before.count(name) && fs::file_size(target.parent_path() / name, ec) > 0 && !ec) {
-      return true;
-    }
-  }
-  return false;
-}
-
-// A run of a command that saves into a file.
-struct SaveRun {
-  bool killed = false;  // False: it ended on its own.
-  // From its first bytes in the temporary file to the rename over the
-  // target (the target's inode changing) and to its end.
-  std::optional<double> rename_ms, end_ms;
-};
-
-uint64_t InodeOf(const fs::path& path) {
-  struct stat st {};
-  return stat(path.c_str(), &st) == 0 ? static_cast<uint64_t>(st.st_ino) : 0;
-}
-
-// Runs `argv`, watching for a save into `target` (SaveStarted); with
-// `kill_after_s`, kills it with SIGKILL that many seconds after the save
-// starts, unless it ended before.
-SaveRun RunWatchingSave(const std::vector<std::string>& argv, const fs::path& target,
-                        std::optional<double> kill_after_s) {
-  const std::set<std::string> before = TemporaryFilesOf(target);
-  const uint64_t old_inode = InodeOf(target);
-  const pid_t pid = fork();
-  if (pid == 0) {
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    execv(args[0], args.data());
-    _exit(127);
-  }
-  SaveRun run;
-  std::optional<rrslam::SteadyClock::time_point> save_start;
-  int status = 0;
-  while (waitpid(pid, &status, WNOHANG) != pid) {
-    if (!save_start && SaveStarted(target, before)) save_start = rrslam::SteadyClock::now();
-    if (save_start && !run.rename_ms && InodeOf(target) != old_inode) {
-      run.rename_ms = rrslam::MillisecondsSince(*save_start);
-    }
-    if (save_start && kill_after_s &&
-        rrslam::MillisecondsSince(*save_start) >= *kill_after_s * 1000) {
-      kill(pid, SIGKILL);
-      waitpid(pid, &status, 0);
-      run.killed = WIFSIGNALED(status);
-      break;
-    }
-    usleep(200);
-  }
-  if (save_start) run.end_ms = rrslam::MillisecondsSince(*save_start);
-  return run;
 }
 
 // Counts the points of a diff list inside a box of synth.json (world frame),
@@ -1111,64 +1041,6 @@ std::vector<std::string> KilledRunArgv(const Options& o, const fs::path& target)
           target.string()};
 }
 
-// A --save-map over an existing map, and what its target may rightly hold.
-struct SaveOverMap {
-  std::vector<std::string> argv;
-  fs::path original, target;  // The existing map; its copy the run saves over.
-  std::string old_bytes;      // The target before the run.
-  std::string new_bytes;      // The target after a run that is not killed.
-};
-
-// What the killed runs left.
-struct KillCounts {
-  int intact_old = 0, complete_new = 0, broken = 0, killed = 0;
-  size_t left_behind = 0;  // Temporary files (removed).
-};
-
-// Runs the save `kills` times, each killed at a moment uniform in
-// [0, window_s] after the save's first bytes.
-KillCounts KillDuringSaves(const SaveOverMap& save, double window_s, int kills,
-                           const fs::path& runs) {
-  std::mt19937 rng(13);
-  std::uniform_real_distribution<double> when(0.0, window_s);
-  KillCounts c;
-  for (int k = 0; k < kills; ++k) {
-    fs::copy_file(save.original, save.target, fs::copy_options::overwrite_existing);
-    c.killed += RunWatchingSave(save.argv, save.target, when(rng)).killed;
-    for (const std::string& name : TemporaryFilesOf(save.target)) {
-      fs::remove(runs / name);
-      ++c.left_behind;
-    }
-    const std::string now = rrslam::ReadFileToString(save.target);
-    if (now == save.old_bytes) {
-      ++c.intact_old;
-    } else if (now == save.new_bytes) {
-      ++c.complete_new;
-    } else {
-      ++c.broken;
-    }
-  }
-  return c;
-}
-
-void AddKillCounts(const KillCounts& c, double full_s, const SaveRun& unkilled, int kills,
-                   const std::string& s, Report* report) {
-  auto ms = [](std::optional<double> v) {
-    return v ? std::to_string(*v) + " ms" : std::string("not seen");
-  };
-  report->Note(s, "run of " + std::to_string(full_s) +
-                      " s; from the save's first bytes to the rename " + ms(unkilled.rename_ms) +
-                      ", to the end " + ms(unkilled.end_ms) +
-                      "; kills uniform up to 1.25 x the rename's time");
-  report->Add(s, {"runs killed", double(c.killed), "of " + std::to_string(kills), "-", true});
-  report->Add(s, {"previous map intact", double(c.intact_old), "", "-", true});
-  report->Add(
-      s, {"new map complete (killed after the rename)", double(c.complete_new), "", "-", true});
-  report->Add(s, {"map file neither (corrupt)", double(c.broken), "", "0", c.broken == 0});
-  report->Add(
-      s, {"temporary files left by killed runs (removed)", double(c.left_behind), "", "-", true});
-}
-
 // SIGKILL at random moments around a --save-map over an existing map.
 void MeasureKillsDuringSave(Bench* bench) {
   const Options& o = bench->options;
@@ -1176,7 +1048,7 @@ void MeasureKillsDuringSave(Bench* bench) {
     return;
   }
   const std::string s = "kill -9 during --save-map (" + o.real_names[0] + " mapping run)";
-  SaveOverMap save;
+  SaveOverFile save;
   save.original = o.runs / (o.real_names[0] + ".rrm");
   save.target = o.runs / "killed.rrm";
   // Temporary files that killed runs of earlier benches left behind.
@@ -1186,17 +1058,24 @@ void MeasureKillsDuringSave(Bench* bench) {
   save.argv = KilledRunArgv(o, save.target);
   // A run that is not killed: the bytes it writes, and how long its save
   // takes.
-  const auto start = rrslam::SteadyClock::now();
   const SaveRun unkilled = RunWatchingSave(save.argv, save.target, std::nullopt);
-  const double full_s = rrslam::MillisecondsSince(start) / 1000;
   save.new_bytes = rrslam::ReadFileToString(save.target);
   // Kills uniform from the save's first bytes to a quarter past its rename
   // (1.25 x that time): most before the rename (the old map must then be
   // intact), a few after. A fixed margin after the rename would outweigh a
   // save of a few milliseconds.
-  const double window_s = 1.25 * unkilled.rename_ms.value_or(50.0) / 1000;
-  const KillCounts counts = KillDuringSaves(save, window_s, o.kills, o.runs);
-  AddKillCounts(counts, full_s, unkilled, o.kills, s, &bench->report);
+  const double save_ms = unkilled.save_ms.value_or(0);
+  const double rename_ms = unkilled.rename_ms ? *unkilled.rename_ms - save_ms : 50.0;
+  const double window_s = 1.25 * rename_ms / 1000;
+  const KillCounts counts =
+      KillDuringSaves(save, 0, window_s, rrslam::bench::KillClock::kSaveStart, o.kills);
+  const std::string note =
+      "run of " + std::to_string(*unkilled.end_ms / 1000) +
+      " s; from the save's first bytes to the rename " +
+      (unkilled.rename_ms ? std::to_string(rename_ms) + " ms" : std::string("not seen")) +
+      ", to the end " + std::to_string(*unkilled.end_ms - save_ms) +
+      " ms; kills uniform up to 1.25 x the rename's time";
+  AddKillCounts(counts, o.kills, note, s, &bench->report);
 }
 
 // PREFIX.txt and PREFIX.json, and the text on stdout.

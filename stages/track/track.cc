@@ -694,6 +694,7 @@ class TrackSession {
   // The new map into the loaded one, with local mapping paused and loop
   // closing's state (of the new map alone) dropped.
   bool MergeMaps() {
+    spdlog::info("track: merging the new map into {}", options_.load_map.string());
     closer_->Reset();
     mapper_->Pause();
     const AtlasMerge* merge = nullptr;
