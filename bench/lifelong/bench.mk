@@ -22,11 +22,17 @@
 #    in the loaded map's frame, 0 frames lost after the merge; the turn's
 #    first 100 frames (never meeting the map): 0 frames lost after the new
 #    map started. With the first real sequence's vocabulary.
+#  - Kills: BENCH_LIFELONG_KILLS SIGKILLs of rrslam-mapstore merge (the first
+#    real sequence's two maps, --out an existing map) at moments uniform over
+#    its run, and as many of the turn session loading and saving one map
+#    file at moments uniform over its merge: the old map intact each time, or
+#    the new one complete; never a broken file.
 # Result: bench/results/lifelong-<UTC date>[-BENCH_LIFELONG_TAG].txt (and .json).
 BENCH_LIFELONG_DIR ?= $(BUILD_DIR)/bench-data/lifelong
 BENCH_LIFELONG_REAL ?= 7scenes-kitchen fr1_xyz
 BENCH_LIFELONG_FRAMES ?= 150
 BENCH_LIFELONG_SESSIONS ?= 5
+BENCH_LIFELONG_KILLS ?= 10
 BENCH_LIFELONG_TAG ?=
 bench_lifelong_pipeline := $(BUILD_DIR)/bench-data/track/pipeline
 bench_lifelong_present := $(call bench_real_present,$(BENCH_LIFELONG_REAL))
@@ -48,7 +54,8 @@ bench-lifelong: configure
 	    --real-features $(bench_lifelong_pipeline)/$(n)/features.h5) \
 	  $(if $(bench_lifelong_present),--synth-vocab $(bench_lifelong_pipeline)/$(firstword $(bench_lifelong_present))/voc.rrv) \
 	  --frames $(BENCH_LIFELONG_FRAMES) --sessions $(BENCH_LIFELONG_SESSIONS) \
+	  --kills $(BENCH_LIFELONG_KILLS) \
 	  --machine "$$(bench/machine.sh)" \
-	  --command '$(call bench_command,bench-lifelong,BENCH_LIFELONG_REAL BENCH_LIFELONG_FRAMES BENCH_LIFELONG_SESSIONS BENCH_LIFELONG_TAG BENCH_LIFELONG_DIR)' \
+	  --command '$(call bench_command,bench-lifelong,BENCH_LIFELONG_REAL BENCH_LIFELONG_FRAMES BENCH_LIFELONG_SESSIONS BENCH_LIFELONG_KILLS BENCH_LIFELONG_TAG BENCH_LIFELONG_DIR)' \
 	  --out bench/results/lifelong-$$(date -u +%Y-%m-%d)$(if $(BENCH_LIFELONG_TAG),-$(BENCH_LIFELONG_TAG))
 BENCH_TARGETS += bench-lifelong

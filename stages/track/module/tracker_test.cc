@@ -177,6 +177,30 @@ TEST_F(TrackerSceneTest, LocalizationOnlyLeavesTheMapAsItIs) {
   EXPECT_TRUE(testing::MapIsConsistent(map_));
 }
 
+// Restore mapping on the map of a first pass: where the map has the view
+// (the mapped part of the path again, from its 10th frame: near the first
+// keyframe, local mapping culled some of its points) no keyframe is made;
+// where the path leaves the mapped part, the view is lacking and keyframes
+// follow.
+TEST_F(TrackerSceneTest, RestoreMappingMakesKeyFramesOnlyWhereTheMapLacksTheView) {
+  MakeTracker({});
+  for (int t = 0; t < 30; ++t) ASSERT_TRUE(TrackAt(PathPose(t))) << t;
+  TrackerOptions o;
+  o.restore_mapping = true;
+  o.close_tracked = 100;
+  MakeTracker(o);
+  tracker_->StartOnLoadedMap();
+  int made_inside = 0, made_beyond = 0;
+  for (int t = 10; t < 120; ++t) {
+    bool new_keyframe = false;
+    ASSERT_TRUE(TrackAt(PathPose(t), &new_keyframe)) << t;
+    (t < 30 ? made_inside : made_beyond) += new_keyframe;
+  }
+  EXPECT_EQ(made_inside, 0);
+  EXPECT_GE(made_beyond, 2);
+  EXPECT_TRUE(testing::MapIsConsistent(map_));
+}
+
 // The local-map search on its own: a cold start relocalizes against one
 // keyframe, then the search by projection in the local map (the keyframes
 // sharing points with the frame and their neighbours) adds the points that
