@@ -249,10 +249,9 @@ class Tracker {
   SolveCounts pose_solves_;
   size_t resets_ = 0;
   int matches_inliers_ = 0;
-  int uncovered_close_ = 0;
-  int seen_through_now_ = 0;
-  std::deque<int>
-      uncovered_history_;  // CountUncoveredClose() of the current frame (restore mapping).
+  // CountUncoveredClose() of the last tracked frames, oldest first (restore
+  // mapping; emptied when tracking is lost).
+  std::deque<int> uncovered_history_;
 
   std::vector<KeyFrame*> local_keyframes_;
   std::vector<MapPoint*> local_points_;
