@@ -995,6 +995,7 @@ class TrackSession {
             {"map_points_culled", loaded_.map_points - kept_points},
             {"changed_points_culled", mapper_->counters().culled_changed_points},
             {"visual_odometry_frames", tracker_->visual_odometry_frames()},
+            {"frames_lacking_view", tracker_->frames_lacking_view()},
             {"other_maps_loaded", loaded_.other_maps},
             {"other_maps_saved", other_maps_saved_},
             {"saved", options_.save_map.string()},

@@ -68,6 +68,7 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
       CountChangeEvidence();
       uncovered_history_.push_back(CountUncoveredClose());
       if (uncovered_history_.size() > kLacksViewFrames) uncovered_history_.pop_front();
+      frames_lacking_view_ += LacksView();
     }
     if (ok && vo_) ++visual_odometry_frames_;
     if (ok && was_lost) ++relocalizations_;

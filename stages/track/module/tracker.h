@@ -180,6 +180,9 @@ class Tracker {
   bool visual_odometry() const { return vo_; }
   // Frames tracked as visual odometry (localization only).
   size_t visual_odometry_frames() const { return visual_odometry_frames_; }
+  // Tracked frames whose view the map lacked (restore mapping: LacksView);
+  // only they may make a keyframe.
+  size_t frames_lacking_view() const { return frames_lacking_view_; }
   size_t resets() const { return resets_; }
   // The pose optimizations' solves so far.
   const SolveCounts& pose_solves() const { return pose_solves_; }
@@ -264,6 +267,7 @@ class Tracker {
   // Localization only.
   bool vo_ = false;
   size_t visual_odometry_frames_ = 0;
+  size_t frames_lacking_view_ = 0;
   // Points of the current visual-odometry step, owned here and never in the
   // map; ids from kTemporaryPointIdBase up (beyond any map point id).
   std::vector<std::unique_ptr<MapPoint>> temporary_points_;
