@@ -125,7 +125,7 @@ class MapPoint {
   int SessionVisible() const { return visible_ - session_visible_base_; }
   int SessionFound() const { return found_ - session_found_base_; }
   // What this run's depth images said where the point was predicted and
-  // not matched (DepthEvidenceAt; Tracker::CountChangeEvidence). Not saved.
+  // not matched (DepthEvidenceAt; Tracker::CompareWithLocalMap). Not saved.
   struct SessionEvidence {
     int present = 0;       // Frames that measured a surface at its depth.
     int seen_through = 0;  // Frames that measured only depths beyond it.

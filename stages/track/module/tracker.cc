@@ -65,8 +65,7 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
     current_.reference_keyframe = reference_keyframe_;
     if (ok && !vo_) ok = TrackLocalMap();
     if (ok && options_.restore_mapping) {
-      CountChangeEvidence();
-      uncovered_history_.push_back(CountUncoveredClose());
+      uncovered_history_.push_back(CompareWithLocalMap());
       if (uncovered_history_.size() > kLacksViewFrames) uncovered_history_.pop_front();
       frames_lacking_view_ += LacksView();
     }
@@ -176,8 +175,9 @@ void Tracker::MoveWorld(const Rigid3d& T_new_old) {
   if (last_good_T_cam_world_) last_good_T_cam_world_ = *last_good_T_cam_world_ * T_old_new;
 }
 
-void Tracker::CountChangeEvidence() {
-  if (current_.depth_metres.empty()) return;
+int Tracker::CompareWithLocalMap() {
+  const FrameFeatures& f = current_.features();
+  const bool with_depth_image = !current_.depth_metres.empty();
   const uint64_t stamp = current_.id() + 1;
   for (const MapPoint* point : current_.map_points) {
     if (point != nullptr) MarkSeen(point, stamp);
@@ -185,11 +185,24 @@ void Tracker::CountChangeEvidence() {
   const Eigen::Matrix3d& R = current_.R_cam_world();
   const Eigen::Vector3d& t = current_.T_cam_world().translation;
   const Eigen::Vector3d& centre = current_.camera_centre();
+  const double th = options_.local_map_search_radius;
+  std::vector<uint8_t> covered(f.size(), 0);
+  std::vector<uint32_t> near;
   for (MapPoint* point : local_points_) {
-    if (point->bad() || seen_mark_[point->id()] == stamp) continue;
+    if (point->bad()) continue;
     ProjectedPoint pp;
     if (!ProjectIntoView(sensor_, R, t, centre, point, 0.5, &pp)) continue;
     const Eigen::Vector3d point_cam = R * point->position_world() + t;
+    // The keypoints it accounts for: near its pixel, at its depth.
+    const double gap = DepthCoverGap(point_cam.z());
+    const double r = (pp.view_cos > 0.998 ? 2.5 : 4.0) * th * sensor_.pyramid.scale[pp.level];
+    near.clear();
+    f.FeaturesInArea(sensor_, pp.u, pp.v, r, 0, -1, &near);
+    for (uint32_t i : near) {
+      if (f.HasDepth(i) && std::abs(f.Depth(i) - point_cam.z()) < gap) covered[i] = 1;
+    }
+    // Not matched: what the depth image says about it.
+    if (!with_depth_image || seen_mark_[point->id()] == stamp) continue;
     const Eigen::Vector2d pixel = sensor_.camera.ProjectDistorted(point_cam);
     switch (DepthEvidenceAt(current_.depth_metres, pixel, point_cam.z())) {
       case DepthEvidence::kPresent:
@@ -200,29 +213,6 @@ void Tracker::CountChangeEvidence() {
         break;
       case DepthEvidence::kNone:
         break;
-    }
-  }
-}
-
-int Tracker::CountUncoveredClose() const {
-  const FrameFeatures& f = current_.features();
-  std::vector<uint8_t> covered(f.size(), 0);
-  const Eigen::Matrix3d& R = current_.R_cam_world();
-  const Eigen::Vector3d& t = current_.T_cam_world().translation;
-  const Eigen::Vector3d& centre = current_.camera_centre();
-  const double th = options_.local_map_search_radius;
-  std::vector<uint32_t> near;
-  for (MapPoint* point : local_points_) {
-    if (point->bad()) continue;
-    ProjectedPoint pp;
-    if (!ProjectIntoView(sensor_, R, t, centre, point, 0.5, &pp)) continue;
-    const double z = (R * point->position_world() + t).z();
-    const double gap = DepthCoverGap(z);
-    const double r = (pp.view_cos > 0.998 ? 2.5 : 4.0) * th * sensor_.pyramid.scale[pp.level];
-    near.clear();
-    f.FeaturesInArea(sensor_, pp.u, pp.v, r, 0, -1, &near);
-    for (uint32_t i : near) {
-      if (f.HasDepth(i) && std::abs(f.Depth(i) - z) < gap) covered[i] = 1;
     }
   }
   int uncovered = 0;

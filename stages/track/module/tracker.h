@@ -96,7 +96,7 @@ struct TrackerOptions {
   // (MapPoint::evidence, for LocalMapperOptions::changed_point_min_absent).
   // Keyframes are made only where the map lacks the view: more than
   // close_untracked close keypoints that no local point accounts for
-  // (CountUncoveredClose) on LacksView's frames in a row; then ORB-SLAM2's
+  // (CompareWithLocalMap) on LacksView's frames in a row; then ORB-SLAM2's
   // rule applies, and also a keyframe once max_keyframe_gap frames passed
   // since the last (ORB-SLAM2's rule waits for the tracked points to drop,
   // which a loaded map covering the rest of the view never lets happen).
@@ -193,13 +193,12 @@ class Tracker {
   // Localization only (ORB-SLAM2's UpdateLastFrame for RGB-D): temporary
   // points for the last frame's close keypoints without a map point.
   void AddTemporaryPoints();
-  // Restore mapping: what the frame's depth image says about the local
-  // points it predicts visible and did not match (MapPoint::evidence).
-  void CountChangeEvidence();
-  // Restore mapping: the close keypoints not tracked that no local point
-  // accounts for (none projects within the local-map search window at a
-  // depth within DepthCoverGap): where the map lacks the view.
-  int CountUncoveredClose() const;
+  // Restore mapping, one pass over the local points the frame predicts
+  // visible: for each not matched, what the frame's depth image says about
+  // it (MapPoint::evidence); returns the close keypoints not tracked that no
+  // local point accounts for (none projects within the local-map search
+  // window at a depth within DepthCoverGap): where the map lacks the view.
+  int CompareWithLocalMap();
   // True when each of the last kLacksViewFrames tracked frames had more than
   // close_untracked uncovered close keypoints: a view the map lacks stays
   // uncovered, a blurred frame or a bad depth image passes.
@@ -252,7 +251,7 @@ class Tracker {
   SolveCounts pose_solves_;
   size_t resets_ = 0;
   int matches_inliers_ = 0;
-  // CountUncoveredClose() of the last tracked frames, oldest first (restore
+  // CompareWithLocalMap() of the last tracked frames, oldest first (restore
   // mapping; emptied when tracking is lost).
   std::deque<int> uncovered_history_;
 
