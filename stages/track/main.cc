@@ -78,6 +78,11 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
                  "beyond it, by max(10 cm, 15%), round its pixel) from at least this many "
                  "viewpoints 5 cm apart, and in 3x as many frames as it measured a surface there")
       ->capture_default_str();
+  app.add_option("--restore-point-found", o->local_mapping.restore_point_min_found,
+                 "Restore mapping: a point made in the session that fewer than two "
+                 "keyframes observe stays when tracking found it in at least this many "
+                 "frames (ORB-SLAM2 culls it two keyframes on); 0 = ORB-SLAM2's rule")
+      ->capture_default_str();
   app.add_option("--new-map-after", o->atlas.new_map_after_s,
                  "Restore mapping: seconds of camera time without relocalizing in the "
                  "--load-map map after which a new map is started and merged into it where "

@@ -153,11 +153,12 @@ inline Rigid3d SmallMotion(double angle_rad, double metres) {
 
 namespace rrslam::testing {
 
-// A keyframe (added to the map) with `n` keypoints on a grid, each with
-// `depth` metres (0 = none) and octave `octave`, random descriptors.
+// A keyframe (added to the map unless `add_to_map` is false, as a keyframe
+// the tracker just made) with `n` keypoints on a grid, each with `depth`
+// metres (0 = none) and octave `octave`, random descriptors.
 inline KeyFrame* MakeGridKeyFrame(Map* map, const SensorModel& sensor, int n,
                                   const Rigid3d& T_cam_world, std::mt19937& rng, float depth = 2.0f,
-                                  int octave = 0) {
+                                  int octave = 0, bool add_to_map = true) {
   SyntheticView view;
   for (int i = 0; i < n; ++i) {
     Keypoint kp;
@@ -171,7 +172,7 @@ inline KeyFrame* MakeGridKeyFrame(Map* map, const SensorModel& sensor, int n,
   }
   KeyFrame* kf =
       map->CreateKeyFrame(MakeFrame(sensor, view, map->num_created_keyframes(), T_cam_world));
-  map->AddKeyFrame(kf);
+  if (add_to_map) map->AddKeyFrame(kf);
   return kf;
 }
 

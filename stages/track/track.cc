@@ -355,6 +355,7 @@ nlohmann::json TrackOptions::ToJson() const {
           {"changed_point_views", local_mapping.changed_point_min_views},
           {"changed_point_ratio", local_mapping.changed_point_min_found_ratio},
           {"changed_point_absent", local_mapping.changed_point_min_absent},
+          {"restore_point_found", local_mapping.restore_point_min_found},
           {"new_map_after_s", atlas.new_map_after_s}};
 }
 

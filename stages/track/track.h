@@ -74,6 +74,7 @@ struct TrackOptions {
   //   local_mapping.changed_point_min_views        --changed-point-views
   //   local_mapping.changed_point_min_found_ratio  --changed-point-ratio
   //   local_mapping.changed_point_min_absent       --changed-point-absent
+  //   local_mapping.restore_point_min_found        --restore-point-found
   //   atlas.new_map_after_s                        --new-map-after / new_map_after_s
   // The session sets the fields that follow from the inputs (max_keyframe_gap
   // from Camera.fps, bow_levels_up from the vocabulary, localization_only,

@@ -88,6 +88,7 @@ TEST_F(TrackToolTest, BadOptionsAreUsageErrors) {
   EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--localization-only").exit_code, 64);
   EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--changed-point-ratio 1.5").exit_code, 64);
   EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--changed-point-views -2").exit_code, 64);
+  EXPECT_EQ(Track(Seq(), SettingsFile(), Voc(), "--restore-point-found -1").exit_code, 64);
   EXPECT_EQ(RunTool("track", "--sequence " + Seq()).exit_code, 64);  // Missing flags.
   EXPECT_FALSE(fs::exists(out()));
   const auto help = RunTool("track", "--help");
@@ -405,6 +406,7 @@ TEST(TrackHelp, DefaultsAreTheOptionsStructs) {
   // The nested modules' defaults are the tool's.
   EXPECT_EQ(defaults["close_tracked"], TrackerOptions{}.close_tracked);
   EXPECT_EQ(defaults["changed_point_views"], LocalMapperOptions{}.changed_point_min_views);
+  EXPECT_EQ(defaults["restore_point_found"], LocalMapperOptions{}.restore_point_min_found);
   EXPECT_EQ(defaults["relocalization"], ToString(TrackerOptions{}.relocalization.method));
   EXPECT_EQ(defaults["relocalization_covisible"], TrackerOptions{}.relocalization.bow_covisible);
   EXPECT_NE(r.output.find("--relocalization TEXT:{bow,bow+direct,direct}=bow+direct"),

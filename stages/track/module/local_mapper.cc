@@ -24,6 +24,10 @@ bool LocalMapperOptions::Check(std::string* why) const {
     return fail("changed_point_min_absent = " + std::to_string(changed_point_min_absent) +
                 "; must be >= 0");
   }
+  if (restore_point_min_found < 0) {
+    return fail("restore_point_min_found = " + std::to_string(restore_point_min_found) +
+                "; must be >= 0");
+  }
   if (!(changed_point_min_found_ratio >= 0 && changed_point_min_found_ratio <= 1)) {
     return fail("changed_point_min_found_ratio = " + std::to_string(changed_point_min_found_ratio) +
                 "; must be in [0, 1]");
@@ -31,13 +35,17 @@ bool LocalMapperOptions::Check(std::string* why) const {
   return true;
 }
 
-RecentPointDecision ClassifyRecentPoint(const MapPoint& point, KeyFrameId current_keyframe_id) {
+RecentPointDecision ClassifyRecentPoint(const MapPoint& point, KeyFrameId current_keyframe_id,
+                                        int min_found) {
   if (point.bad()) return RecentPointDecision::kCull;
   if (point.FoundRatio() < 0.25) return RecentPointDecision::kCull;
   const KeyFrameId age = current_keyframe_id - point.first_keyframe_id();
   // Three weighted observations: one keyframe with depth plus one without, or
   // three without. After two more keyframes a point needs more to stay.
-  if (age >= 2 && point.num_observations() <= 3) return RecentPointDecision::kCull;
+  if (age >= 2 && point.num_observations() <= 3) {
+    return min_found > 0 && point.found() >= min_found ? RecentPointDecision::kConfirm
+                                                       : RecentPointDecision::kCull;
+  }
   if (age >= 3) return RecentPointDecision::kConfirm;
   return RecentPointDecision::kWatch;
 }
@@ -111,9 +119,10 @@ size_t LocalMapper::CullRecentPoints(const KeyFrame* keyframe) {
   size_t culled = 0;
   std::vector<MapPoint*> kept;
   kept.reserve(recent_points_.size());
+  const int min_found = restore_mapping_ ? options_.restore_point_min_found : 0;
   for (MapPoint* point : recent_points_) {
     if (point->bad()) continue;
-    switch (ClassifyRecentPoint(*point, keyframe->id())) {
+    switch (ClassifyRecentPoint(*point, keyframe->id(), min_found)) {
       case RecentPointDecision::kCull:
         map_->CullMapPoint(point);
         ++culled;
@@ -309,6 +318,7 @@ bool IsChangedPoint(const MapPoint& point, const LocalMapperOptions& options) {
 
 void LocalMapper::WatchLoadedPoints(const std::vector<MapPoint*>& points) {
   loaded_points_ = points;
+  restore_mapping_ = true;
   for (MapPoint* point : loaded_points_) point->StartSession();
 }
 
@@ -460,6 +470,7 @@ void LocalMapper::Reset() {
   if (running) Stop();  // Finishes the keyframe in progress.
   recent_points_.clear();
   loaded_points_.clear();
+  restore_mapping_ = false;
   if (running) Start();
 }
 

@@ -64,6 +64,14 @@ struct LocalMapperOptions {
   int changed_point_min_views = 20;
   double changed_point_min_found_ratio = 0.25;
   int changed_point_min_absent = 4;
+  // Restore mapping: a point made in this session that ORB-SLAM2 would cull
+  // for too few keyframe observers two keyframes after its own (weight <= 3:
+  // one keyframe with depth) stays when tracking found it in at least this
+  // many frames (and in >= 25% of its predicted views, as any recent point).
+  // Keyframes come only where the loaded map lacks the view, so a new
+  // object's points seldom get a second keyframe observer; tracking's
+  // matches are their evidence instead. 0 = ORB-SLAM2's rule. >= 0.
+  int restore_point_min_found = 10;
 
   // Names the first violated constraint ("changed_point_min_views = -1; must be >= 0").
   bool Check(std::string* why) const;
@@ -79,10 +87,14 @@ bool IsChangedPoint(const MapPoint& point, const LocalMapperOptions& options);
 // What happens to a recently created map point at a new keyframe.
 enum class RecentPointDecision {
   kCull,     // Bad, found in < 25% of its predicted views, or too few observers after 2 keyframes.
-  kConfirm,  // Survived 3 keyframes: no longer watched.
+  kConfirm,  // Survived 3 keyframes (or too few observers but found in `min_found` frames).
   kWatch,    // Keep watching.
 };
-RecentPointDecision ClassifyRecentPoint(const MapPoint& point, KeyFrameId current_keyframe_id);
+// `min_found` > 0: a point with too few observers after 2 keyframes is
+// confirmed instead of culled when found in at least that many frames
+// (LocalMapperOptions::restore_point_min_found); 0: ORB-SLAM2's rule.
+RecentPointDecision ClassifyRecentPoint(const MapPoint& point, KeyFrameId current_keyframe_id,
+                                        int min_found = 0);
 
 // True when at least `redundancy` of the keyframe's good map points with a
 // close depth (0 < depth <= th_depth) are each seen by at least `min_observers`
@@ -139,8 +151,10 @@ class LocalMapper {
   void SetKeyFrameSink(std::function<void(KeyFrame*)> sink) { sink_ = std::move(sink); }
 
   // Restore mapping: the points of a loaded map, watched for scene changes
-  // (LocalMapperOptions::changed_point_min_views) from now on. Call before
-  // Start(), under the map lock or with no other thread running.
+  // (LocalMapperOptions::changed_point_min_views) from now on, and recent
+  // points judged by restore mapping's rule (restore_point_min_found) until
+  // Reset(). Call before Start(), under the map lock or with no other thread
+  // running.
   void WatchLoadedPoints(const std::vector<MapPoint*>& points);
 
   // Realtime mode: Pause() returns once the mapper is between keyframes and
@@ -174,6 +188,7 @@ class LocalMapper {
   LocalBundleAdjuster adjuster_;
   std::vector<MapPoint*> recent_points_;
   std::vector<MapPoint*> loaded_points_;  // Watched for changes (restore mapping).
+  bool restore_mapping_ = false;          // From WatchLoadedPoints() until Reset().
   LocalMappingCounters counters_;
 
   mutable std::mutex queue_mutex_;

@@ -154,6 +154,57 @@ TEST_F(CullingTest, KeyFrameRedundancyIgnoresFarAndDepthlessPoints) {
   EXPECT_FALSE(IsRedundantKeyFrame(*no_depth, sensor_));
 }
 
+TEST_F(CullingTest, AFrequentlyFoundPointSurvivesTooFewObserversOnlyWithMinFound) {
+  KeyFrame* k0 = AddKeyFrame();
+  MapPoint* point = MakeObservedPoint(&map_, {k0}, {0});  // One keyframe with depth: weight 2.
+  point->IncreaseVisible(11);
+  point->IncreaseFound(8);  // Found 9 of 12.
+  EXPECT_EQ(ClassifyRecentPoint(*point, k0->id() + 1, 10), RecentPointDecision::kWatch);
+  EXPECT_EQ(ClassifyRecentPoint(*point, k0->id() + 2, 10), RecentPointDecision::kCull);
+  point->IncreaseFound(1);  // 10 of 12.
+  EXPECT_EQ(ClassifyRecentPoint(*point, k0->id() + 2, 10), RecentPointDecision::kConfirm);
+  EXPECT_EQ(ClassifyRecentPoint(*point, k0->id() + 2), RecentPointDecision::kCull);  // ORB-SLAM2.
+  point->IncreaseVisible(40);  // 10 of 52: rarely found, culled whatever the count.
+  EXPECT_EQ(ClassifyRecentPoint(*point, k0->id() + 2, 10), RecentPointDecision::kCull);
+}
+
+// Restore mapping (from WatchLoadedPoints until Reset) keeps a new point
+// that tracking found often though no second keyframe observes it (a new
+// object, where keyframes are made only where the loaded map lacks the
+// view); a new map culls it as ORB-SLAM2 does.
+TEST_F(CullingTest, RestoreMappingKeepsNewPointsThatTrackingFinds) {
+  const Vocabulary vocabulary = testing::HundredWordVocabulary();
+  KeyFrameDatabase database(vocabulary);
+  LocalMapperOptions options;
+  options.restore_point_min_found = 10;
+  LocalMapper mapper(sensor_, vocabulary, &map_, &database, options);
+  AddKeyFrame();
+  // A keyframe the tracker made with two new points, found in 10 and 9 frames.
+  auto new_points = [&] {
+    KeyFrame* kf = testing::MakeGridKeyFrame(&map_, sensor_, 40, Rigid3d::Identity(), rng_, 2.0f, 0,
+                                             /*add_to_map=*/false);
+    std::vector<MapPoint*> points = {MakeObservedPoint(&map_, {kf}, {0}),
+                                     MakeObservedPoint(&map_, {kf}, {1})};
+    for (int i = 0; i < 2; ++i) {
+      points[i]->IncreaseVisible(11);
+      points[i]->IncreaseFound(9 - i);
+    }
+    mapper.InsertKeyFrame(kf);
+    AddKeyFrame();
+    mapper.CullRecentPoints(AddKeyFrame());  // Two keyframes on.
+    return points;
+  };
+  mapper.WatchLoadedPoints({});
+  const std::vector<MapPoint*> restored = new_points();
+  EXPECT_FALSE(restored[0]->bad());
+  EXPECT_TRUE(restored[1]->bad());
+  mapper.Reset();  // A new map: ORB-SLAM2's rule.
+  const std::vector<MapPoint*> fresh = new_points();
+  EXPECT_TRUE(fresh[0]->bad());
+  EXPECT_TRUE(fresh[1]->bad());
+  EXPECT_TRUE(testing::MapIsConsistent(map_));
+}
+
 TEST_F(CullingTest, MapperCullsRedundantCovisibleKeyFramesButNeverTheRoot) {
   // Root, a redundant keyframe and three others seeing everything it sees.
   KeyFrame* root = AddKeyFrame();
