@@ -886,6 +886,7 @@ class TrackSession {
       attempts.push_back({{"timestamp", a.timestamp},
                           {"stage", a.stage},
                           {"bow_candidates", a.bow_candidates},
+                          {"direct_queries", a.direct_queries},
                           {"direct_matches", a.direct_matches},
                           {"inliers", a.inliers},
                           {"index_ms", a.index_ms},

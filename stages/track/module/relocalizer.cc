@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <random>
@@ -188,6 +189,9 @@ bool RelocalizationOptions::Check(std::string* why) const {
   }
   if (d.max_matches < 3) {
     return fail("direct.max_matches = " + std::to_string(d.max_matches) + "; must be >= 3");
+  }
+  if (d.first_queries < 0) {
+    return fail("direct.first_queries = " + std::to_string(d.first_queries) + "; must be >= 0");
   }
   if (d.ransac.max_iterations < 1) {
     return fail("direct.ransac.max_iterations = " + std::to_string(d.ransac.max_iterations) +
@@ -436,12 +440,35 @@ KeyFrame* Relocalizer::RelocalizeByBow(Frame* frame, SolveCounts* solves,
   return nullptr;
 }
 
-std::vector<PoseCorrespondence> Relocalizer::DirectMatches(const Frame& frame,
-                                                           std::vector<MapPoint*>* points,
-                                                           std::vector<uint32_t>* keypoints) const {
+std::vector<uint32_t> Relocalizer::QueryOrder(const Frame& frame) {
+  const FrameFeatures& f = frame.features();
+  std::vector<uint32_t> order(f.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(), [&f](uint32_t a, uint32_t b) {
+    const bool depth_a = f.HasDepth(a), depth_b = f.HasDepth(b);
+    if (depth_a != depth_b) return depth_a;
+    return f.keypoints[a].response > f.keypoints[b].response;
+  });
+  return order;
+}
+
+void Relocalizer::SearchIndex(const Frame& frame, const std::vector<uint32_t>& order, size_t begin,
+                              size_t end, std::vector<DescriptorNeighbours>* nearest) const {
+  const FrameFeatures& f = frame.features();
+  std::vector<OrbDescriptor> queries;
+  queries.reserve(end - begin);
+  for (size_t k = begin; k < end; ++k) queries.push_back(f.descriptors[order[k]]);
+  const std::vector<DescriptorNeighbours> found = index_.Search(queries);
+  for (size_t k = begin; k < end; ++k) (*nearest)[order[k]] = found[k - begin];
+}
+
+std::vector<PoseCorrespondence> Relocalizer::DirectMatches(
+    const Frame& frame, const std::vector<DescriptorNeighbours>& nearest,
+    std::vector<MapPoint*>* points, std::vector<uint32_t>* keypoints) const {
   const FrameFeatures& f = frame.features();
   const DirectMatchOptions& o = options_.direct;
-  const std::vector<DescriptorNeighbours> nearest = index_.Search(f.descriptors);
+  points->clear();
+  keypoints->clear();
   struct Candidate {
     double ratio;  // Nearest / second nearest distance (0: no second).
     int distance;
@@ -527,11 +554,32 @@ KeyFrame* Relocalizer::RelocalizeDirect(Frame* frame, SolveCounts* solves,
                                         RelocalizationAttempt* attempt) {
   ClearMatches(frame);
   attempt->index_ms = PrepareIndex();
+  const std::vector<uint32_t> order = QueryOrder(*frame);
+  const size_t first =
+      options_.direct.first_queries > 0
+          ? std::min(order.size(), static_cast<size_t>(options_.direct.first_queries))
+          : order.size();
+  std::vector<DescriptorNeighbours> nearest(order.size());
+  size_t searched = 0;
+  for (size_t end : {first, order.size()}) {
+    if (end <= searched) continue;
+    const auto search_start = SteadyClock::now();
+    SearchIndex(*frame, order, searched, end, &nearest);
+    spdlog::debug("relocalization: frame {}: keypoints {}-{} searched in {:.1f} ms", frame->id(),
+                  searched, end, MillisecondsSince(search_start));
+    searched = end;
+    attempt->direct_queries = static_cast<int>(searched);
+    if (KeyFrame* kf = DirectPose(frame, nearest, solves, attempt)) return kf;
+  }
+  return nullptr;
+}
+
+KeyFrame* Relocalizer::DirectPose(Frame* frame, const std::vector<DescriptorNeighbours>& nearest,
+                                  SolveCounts* solves, RelocalizationAttempt* attempt) {
   std::vector<MapPoint*> points;
   std::vector<uint32_t> keypoints;
-  const auto search_start = SteadyClock::now();
-  const std::vector<PoseCorrespondence> matches = DirectMatches(*frame, &points, &keypoints);
-  const double search_ms = MillisecondsSince(search_start);
+  const std::vector<PoseCorrespondence> matches =
+      DirectMatches(*frame, nearest, &points, &keypoints);
   attempt->direct_matches = static_cast<int>(matches.size());
   const auto ransac_start = SteadyClock::now();
   std::vector<uint8_t> inlier;
@@ -542,9 +590,8 @@ KeyFrame* Relocalizer::RelocalizeDirect(Frame* frame, SolveCounts* solves,
     if (inlier[j]) frame->map_points[keypoints[j]] = points[j];
     ransac_inliers += inlier[j];
   }
-  spdlog::debug(
-      "relocalization: frame {}: {} direct matches in {:.1f} ms, RANSAC {} inliers in {:.1f} ms",
-      frame->id(), matches.size(), search_ms, ransac_inliers, MillisecondsSince(ransac_start));
+  spdlog::debug("relocalization: frame {}: {} direct matches, RANSAC {} inliers in {:.1f} ms",
+                frame->id(), matches.size(), ransac_inliers, MillisecondsSince(ransac_start));
   frame->SetPose(T);
   const int good = VerifyByLocalMap(frame, solves);
   KeyFrame* kf = MostObservingKeyFrame(*frame);

@@ -26,12 +26,12 @@
 // `max_distance` bits that passes the ratio test against the second nearest
 // (a second nearest within `same_point_radius` of the first is the same
 // place seen twice and does not count), one keypoint per point, the most
-// distinctive `max_matches` kept. A RANSAC over these fits the pose from
-// three keypoints with depth (solve/absolute_pose_ransac.h), or by PnP
-// (SolvePnpRansac) when fewer than min_inliers have depth. The inliers then
-// seed a search of their local map (LocalMapVerifyOptions: the keyframes
-// observing them and their covisible ones, as the tracker searches after a
-// relocalization); 50 inliers relocalize the frame. The map-point index is
+// distinctive `max_matches` kept. The strongest `first_queries` keypoints
+// are searched first; the rest only when their pose is not accepted. A RANSAC over these fits the
+// pose from three keypoints with depth (solve/absolute_pose_ransac.h), or by PnP (SolvePnpRansac)
+// when fewer than min_inliers have depth. The inliers then seed a search of their local map
+// (LocalMapVerifyOptions: the keyframes observing them and their covisible ones, as the tracker
+// searches after a relocalization); 50 inliers relocalize the frame. The map-point index is
 // deterministic (its own seeded LSH), so batch runs stay bit-identical.
 //
 // `bow_covisible` widens the BoW stage as ORB-SLAM3's place recognition:
@@ -109,6 +109,12 @@ struct DirectMatchOptions {
   double ratio = 0.8;               // Nearest / second nearest distance.
   double same_point_radius = 0.05;  // Metres.
   int max_matches = 400;            // The most distinctive, into the RANSAC.
+  // Prioritised search: the `first_queries` strongest keypoints (those with
+  // depth first, then by corner response) are searched first, and the pose
+  // from their matches tried; only when it is not accepted are the rest
+  // searched and the pose tried again from all matches. The search is the
+  // stage's cost, bound by memory latency on a large map. 0: all at once.
+  int first_queries = 500;
   AbsolutePoseRansacOptions ransac;
   MapPointIndexOptions index;
 };
@@ -146,7 +152,8 @@ struct RelocalizationOptions {
 struct RelocalizationAttempt {
   std::string stage;       // "bow" or "direct": the stage that found the pose; "" none.
   int bow_candidates = 0;  // Keyframes the database proposed.
-  int direct_matches = 0;  // Correspondences into the direct stage's RANSAC.
+  int direct_matches = 0;  // Correspondences into the direct stage's (last) RANSAC.
+  int direct_queries = 0;  // Keypoints the direct stage searched the index for.
   // After verification: of the accepted pose; when none was accepted, the
   // most that any verified pose reached.
   int inliers = 0;
@@ -186,9 +193,23 @@ class Relocalizer {
   int BowMatches(const Matcher& matcher, const KeyFrame& kf, const Frame& frame,
                  std::vector<MapPoint*>* matches) const;
   KeyFrame* RelocalizeDirect(Frame* frame, SolveCounts* solves, RelocalizationAttempt* attempt);
-  // The frame's map points matched by the index, with their RANSAC inputs.
-  std::vector<PoseCorrespondence> DirectMatches(const Frame& frame, std::vector<MapPoint*>* points,
+  // The frame's keypoints in the direct stage's search order: with depth
+  // first, then by corner response (strongest first), then by index.
+  static std::vector<uint32_t> QueryOrder(const Frame& frame);
+  // The index's nearest points of keypoints order[begin, end) into
+  // `nearest` (one entry per keypoint of the frame).
+  void SearchIndex(const Frame& frame, const std::vector<uint32_t>& order, size_t begin, size_t end,
+                   std::vector<DescriptorNeighbours>* nearest) const;
+  // The frame's map points matched among `nearest`, with their RANSAC inputs.
+  std::vector<PoseCorrespondence> DirectMatches(const Frame& frame,
+                                                const std::vector<DescriptorNeighbours>& nearest,
+                                                std::vector<MapPoint*>* points,
                                                 std::vector<uint32_t>* keypoints) const;
+  // The pose from `nearest`'s matches, verified against its local map: the
+  // keyframe observing most inliers when accepted, else nullptr (matches
+  // cleared).
+  KeyFrame* DirectPose(Frame* frame, const std::vector<DescriptorNeighbours>& nearest,
+                       SolveCounts* solves, RelocalizationAttempt* attempt);
   // The direct stage's pose from `matches`: the 3D-3D RANSAC, or PnP when
   // fewer than min_inliers matches have depth; false when neither finds one.
   bool SolveDirectPose(const std::vector<PoseCorrespondence>& matches, uint64_t seed,

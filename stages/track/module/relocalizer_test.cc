@@ -232,6 +232,32 @@ TEST_F(RelocalizerTest, TheDirectStageCompletesAFewMatchesFromTheLocalMap) {
   EXPECT_EQ(attempt.inliers, options.min_inliers - 1);
 }
 
+// Prioritised search: the strongest keypoints first; the rest only when
+// their pose is not accepted.
+TEST_F(RelocalizerTest, TheDirectStageSearchesTheRestOnlyWhenTheFirstKeypointsFail) {
+  const Rigid3d T_true = SmallMotion(0.01, 0.02) * truth_[2];
+  const Frame query = QueryFrame(scene_, T_true);
+  const int keypoints = static_cast<int>(query.size());
+  auto relocalize = [&](int first_queries, RelocalizationAttempt* attempt) {
+    RelocalizationOptions options = WithMethod(RelocalizationMethod::kDirect);
+    options.direct.first_queries = first_queries;
+    Frame frame = query;
+    Relocalizer relocalizer(sensor_, database_, map_, options);
+    const bool ok = relocalizer.Relocalize(&frame, nullptr, attempt) != nullptr;
+    if (ok) EXPECT_LT(TranslationError(frame.T_cam_world(), T_true), 0.01);
+    return ok;
+  };
+  RelocalizationAttempt attempt;
+  ASSERT_GT(keypoints, 200);
+  EXPECT_TRUE(relocalize(200, &attempt));  // Enough in the first 200.
+  EXPECT_EQ(attempt.direct_queries, 200);
+  EXPECT_TRUE(relocalize(5, &attempt));  // 5 cannot give a pose: all searched.
+  EXPECT_EQ(attempt.direct_queries, keypoints);
+  EXPECT_GE(attempt.direct_matches, 50);
+  EXPECT_TRUE(relocalize(0, &attempt));  // All at once.
+  EXPECT_EQ(attempt.direct_queries, keypoints);
+}
+
 TEST_F(RelocalizerTest, AFrameOfAnotherPlaceIsNotRelocalized) {
   for (RelocalizationMethod method : kMethods) {
     SCOPED_TRACE(ToString(method));
@@ -268,6 +294,10 @@ TEST(RelocalizationOptionsTest, MethodNamesRoundTripAndBadOptionsAreNamed) {
   options.bow_covisible = 21;
   EXPECT_FALSE(options.Check(&why));
   EXPECT_EQ(why, "bow_covisible = 21; must be in [0, 20]");
+  options = {};
+  options.direct.first_queries = -1;
+  EXPECT_FALSE(options.Check(&why));
+  EXPECT_EQ(why, "direct.first_queries = -1; must be >= 0");
 }
 
 // ORB-SLAM3's covisible window: each candidate's matches with those of its
