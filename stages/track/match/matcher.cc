@@ -204,6 +204,10 @@ int Matcher::SearchByProjection(Frame* current, const Frame& last, double th) co
   return matches;
 }
 
+double LocalMapSearchRadius(const ProjectedPoint& pp, double th, const ScalePyramid& pyramid) {
+  return (pp.view_cos > 0.998 ? 2.5 : 4.0) * th * pyramid.scale[pp.level];
+}
+
 int Matcher::SearchByProjection(Frame* frame, const std::vector<ProjectedPoint>& points,
                                 double th) const {
   const FrameFeatures& f = frame->features();
@@ -213,8 +217,7 @@ int Matcher::SearchByProjection(Frame* frame, const std::vector<ProjectedPoint>&
   for (const ProjectedPoint& pp : points) {
     MapPoint* point = pp.point;
     if (point->bad()) continue;
-    // A wider window for points seen obliquely: their projection is less sure.
-    const double r = (pp.view_cos > 0.998 ? 2.5 : 4.0) * th * pyramid.scale[pp.level];
+    const double r = LocalMapSearchRadius(pp, th, pyramid);
     candidates.clear();
     f.FeaturesInArea(sensor_, pp.u, pp.v, r, pp.level - 1, pp.level, &candidates);
     if (candidates.empty()) continue;

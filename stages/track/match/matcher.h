@@ -64,6 +64,12 @@ struct ProjectedPoint {
   double view_cos = 0;  // Cosine between viewing ray and the point's normal.
 };
 
+// The local-map search window's radius (pixels) round a projected point,
+// `th` x its predicted level's scale x 2.5 when seen head-on (view cosine
+// > 0.998), x 4 when seen obliquely, whose projection is less sure
+// (ORB-SLAM2's RadiusByViewingCos).
+double LocalMapSearchRadius(const ProjectedPoint& pp, double th, const ScalePyramid& pyramid);
+
 // Projects `point` into a frame with pose (`R_cam_world`, `t_cam_world`,
 // camera centre `centre`). True when it lies in front of the camera, inside
 // the image bounds, within its scale-invariance distances, and is seen at an

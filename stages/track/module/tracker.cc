@@ -195,7 +195,7 @@ int Tracker::CompareWithLocalMap() {
     const Eigen::Vector3d point_cam = R * point->position_world() + t;
     // The keypoints it accounts for: near its pixel, at its depth.
     const double gap = DepthCoverGap(point_cam.z());
-    const double r = (pp.view_cos > 0.998 ? 2.5 : 4.0) * th * sensor_.pyramid.scale[pp.level];
+    const double r = LocalMapSearchRadius(pp, th, sensor_.pyramid);
     near.clear();
     f.FeaturesInArea(sensor_, pp.u, pp.v, r, 0, -1, &near);
     for (uint32_t i : near) {
