@@ -619,37 +619,46 @@ const MapSectionInfo* FindSection(const ParsedHeader& h, int section, const std:
   return found;
 }
 
-// A known section's bytes, checked against its checksum.
-std::span<const uint8_t> CheckedSection(const ParsedHeader& h, int section,
-                                        const std::string& source, size_t map = 0) {
+// A known section's bytes; `check`: against its own checksum too.
+std::span<const uint8_t> FoundSection(const ParsedHeader& h, int section, const std::string& source,
+                                      size_t map = 0, bool check = false) {
   const MapSectionInfo* found = FindSection(h, section, source, map);
   if (found == nullptr) {
     throw DataError(source + ": " + SectionText(section, map) + " is missing");
   }
   const std::span<const uint8_t> bytes = h.payload.subspan(found->offset, found->size);
-  if (Checksum64(bytes) != found->checksum) {
+  if (check && Checksum64(bytes) != found->checksum) {
     throw DataError(source + ": " + SectionText(section, map) +
                     ": checksum mismatch (file corrupt)");
   }
   return bytes;
 }
 
-// The known sections of a map (0) or of its k-th other map, each checked
-// against its checksum.
-Sections CheckedSections(const ParsedHeader& h, const std::string& source, size_t map = 0) {
+// A known section's bytes, checked against its checksum.
+std::span<const uint8_t> CheckedSection(const ParsedHeader& h, int section,
+                                        const std::string& source, size_t map = 0) {
+  return FoundSection(h, section, source, map, /*check=*/true);
+}
+
+// The known sections of a map (0) or of its k-th other map (their bytes:
+// the payload's checksum vouches for them, CheckPayload).
+Sections FoundSections(const ParsedHeader& h, const std::string& source, size_t map = 0) {
   Sections s;
-  for (int i = 0; i < kNumSections; ++i) s[i] = CheckedSection(h, i, source, map);
+  for (int i = 0; i < kNumSections; ++i) s[i] = FoundSection(h, i, source, map);
   return s;
 }
 
-// The whole payload against its checksum, once every known section was:
-// catches corruption between sections and in sections this version does
-// not know.
-void CheckPayload(const ParsedHeader& h, const std::string& source) {
-  if (Checksum64(h.payload) != h.payload_checksum) {
-    throw DataError(source +
-                    ": payload checksum mismatch outside the known sections (file corrupt)");
+// The whole payload against its checksum: one pass over every byte. Only
+// when it fails are the known sections checked one by one, to name the
+// corrupt one (sections of the map, then of its other maps, in `parts`
+// order); when they all pass, the corruption lies between sections or in a
+// section this version does not know.
+void CheckPayload(const ParsedHeader& h, size_t parts, const std::string& source) {
+  if (Checksum64(h.payload) == h.payload_checksum) return;
+  for (size_t map = 0; map < parts; ++map) {
+    for (int i = 0; i < kNumSections; ++i) CheckedSection(h, i, source, map);
   }
+  throw DataError(source + ": payload checksum mismatch outside the known sections (file corrupt)");
 }
 
 MapData ParseMeta(std::span<const uint8_t> m, const std::string& source, MapCounts* counts) {
@@ -936,14 +945,14 @@ MapData ParsePart(const Sections& s, const std::string& where, const MappedFile*
 MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info,
                  const MappedFile* mapping) {
   const ParsedHeader h = ParseHeader(file, source);
-  // Every known section's checksum, the map's and its other maps' (format
-  // 1.1, while "<k>:meta" is listed), then the payload's.
-  std::vector<Sections> parts = {CheckedSections(h, source)};
+  // The known sections of the map and of its other maps (format 1.1, while
+  // "<k>:meta" is listed), and the payload's checksum over all of them.
+  std::vector<Sections> parts = {FoundSections(h, source)};
   for (size_t k = 1; k <= kMaxOtherMaps && FindSection(h, kMeta, source, k) != nullptr; ++k) {
-    parts.push_back(CheckedSections(h, source, k));
+    parts.push_back(FoundSections(h, source, k));
   }
-  CheckPayload(h, source);
-  if (mapping != nullptr) mapping->Release(h.payload);  // Read once by the checksums.
+  CheckPayload(h, parts.size(), source);
+  if (mapping != nullptr) mapping->Release(h.payload);  // Read once by the checksum.
   MapData map = ParsePart(parts[0], source, mapping);
   for (size_t k = 1; k < parts.size(); ++k) {
     map.other_maps.push_back(

@@ -50,7 +50,8 @@ void WriteMapFile(const std::filesystem::path& path, const MapData& map);
 MapFileInfo WriteMapFileAt(const std::filesystem::path& file, const MapData& map,
                            const std::string& name);
 
-// Parses a whole file: header, every section's checksum and bounds, the
+// Parses a whole file: header, the payload's checksum (and, when it fails,
+// each section's, to name the corrupt one), the sections' bounds, the
 // records, then ValidateMapData. Throws DataError naming `source` and the
 // first problem ("map.rrm: section keypoints: checksum mismatch",
 // "map.rrm: format major version 2, this build reads 1", ...). `info`, when

@@ -524,7 +524,6 @@ class TrackSession {
     startup.map_load_ms = MillisecondsSince(map_start);
     loaded_.identity = MapIdentity(info);
     tracker_->StartOnLoadedMap();
-    startup.relocalization_index_ms = tracker_->relocalization_index_ms();
     if (!options_.localization_only) mapper_->WatchLoadedPoints(map_.MapPoints());
     if (!carried_maps_.empty()) {
       spdlog::info("track: {} keeps {} other map(s) beside it: not tracked in, saved again", source,
@@ -776,6 +775,9 @@ class TrackSession {
     summary_.lost = summary_.frames - summary_.tracked;
     summary_.keyframes = map_.num_keyframes();
     summary_.map_points = map_.num_map_points();
+    if (!options_.load_map.empty()) {
+      summary_.startup.relocalization_index_ms = tracker_->relocalization_index_ms();
+    }
   }
 
   // A file of the output folder (not yet committed).

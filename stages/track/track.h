@@ -134,8 +134,9 @@ struct TrackStartup {
   double vocabulary_load_ms = 0;
   double map_load_ms = 0;  // Read, check and rebuild; 0 without --load-map.
   double map_read_ms = 0;  // Of which reading and checking the file.
-  // Relocalization's map-point index built on the loaded map (after
-  // map_load_ms; 0 with --relocalization bow).
+  // Relocalization's map-point index built on the loaded map (on a thread
+  // of its own from the end of map_load_ms, while tracking starts; 0 with
+  // --relocalization bow).
   double relocalization_index_ms = 0;
   double first_pose_ms = -1;      // From process start to the first pose; -1 = none.
   int64_t first_pose_frame = -1;  // Sequence index of that frame.

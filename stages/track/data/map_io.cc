@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -269,6 +270,10 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
   }
   frames.clear();
   auto keyframe = [&](uint64_t id) { return map->keyframe_by_id(id); };
+  // The keyframe database's inverted file reads only the keyframes' bags of
+  // words: built on a thread of its own meanwhile (the same postings).
+  std::future<void> database_added =
+      std::async(std::launch::async, [database, &keyframes] { database->AddAll(keyframes); });
 
   // Map points with their observations (both sides).
   std::vector<MapPoint*> points;
@@ -281,6 +286,7 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
                              r.max_distance);
     p->SetDescriptor(r.descriptor);
     p->RestoreSaved(r.visible, r.found, r.first_keyframe);
+    p->ReserveObservations(r.observations.size());
     for (const auto& [kf_id, index] : r.observations) {
       map->AddObservation(p, keyframe(kf_id), index);
     }
@@ -309,7 +315,7 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
   }
   if (map->root() != nullptr) map->root()->set_connected();
   for (KeyFrame* kf : keyframes) map->AddKeyFrame(kf);
-  database->AddAll(keyframes);
+  database_added.get();
   for (MapPoint* p : points) map->AddMapPoint(p);
 }
 

@@ -51,6 +51,8 @@ class MapPoint {
   // Adds an observation; no-op when the keyframe already observes the point.
   // Only updates this point: Map::AddObservation updates both sides.
   void AddObservation(KeyFrame* keyframe, uint32_t index);
+  // Room for `count` observations (a point loaded from a file).
+  void ReserveObservations(size_t count) { observations_.reserve(count); }
   // Removes the observation of `keyframe`; returns false when there was none.
   // When it was the reference keyframe, the first remaining observer becomes it.
   bool RemoveObservation(const KeyFrame* keyframe);

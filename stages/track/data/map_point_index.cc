@@ -72,14 +72,23 @@ MapPointIndex::MapPointIndex(MapPointIndex&&) noexcept = default;
 MapPointIndex& MapPointIndex::operator=(MapPointIndex&&) noexcept = default;
 
 void MapPointIndex::Build(const Map& map) {
-  Build(map.MapPoints());
+  Snapshot(map);
+  BuildTables();
+}
+
+void MapPointIndex::Snapshot(const Map& map) {
+  TakePoints(map.MapPoints());
   built_created_ = map.num_created_map_points();
   built_count_ = map.num_map_points();
   built_from_map_ = true;
 }
 
 void MapPointIndex::Build(const std::vector<MapPoint*>& points) {
-  if (options_.threads > 1 && !pool_) pool_ = std::make_unique<WorkerPool>(options_.threads);
+  TakePoints(points);
+  BuildTables();
+}
+
+void MapPointIndex::TakePoints(const std::vector<MapPoint*>& points) {
   built_from_map_ = false;
   points_.clear();
   descriptors_.clear();
@@ -89,6 +98,11 @@ void MapPointIndex::Build(const std::vector<MapPoint*>& points) {
     points_.push_back(p);
     descriptors_.push_back(p->descriptor());
   }
+}
+
+void MapPointIndex::BuildTables() {
+  if (options_.threads > 1 && !pool_) pool_ = std::make_unique<WorkerPool>(options_.threads);
+  tables_.clear();
   // The same bits for every build: searches are reproducible.
   std::mt19937_64 rng(options_.seed);
   std::vector<int> all(8 * sizeof(OrbDescriptor));

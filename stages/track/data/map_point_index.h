@@ -67,8 +67,15 @@ class MapPointIndex {
   MapPointIndex(MapPointIndex&&) noexcept;
   MapPointIndex& operator=(MapPointIndex&&) noexcept;
 
-  // Indexes every good point of `map` (its descriptor as it is now).
+  // Indexes every good point of `map` (its descriptor as it is now):
+  // Snapshot(map), then BuildTables().
   void Build(const Map& map);
+  // The two parts of Build(map): the points and their descriptors taken from
+  // the map (under Map::mutex(); a few ms on a big map), then the hash
+  // tables from those descriptors alone (no map access: may run on another
+  // thread, with no search meanwhile). Searches are valid after both.
+  void Snapshot(const Map& map);
+  void BuildTables();
   // Indexes `points` (tests; bad points are skipped).
   void Build(const std::vector<MapPoint*>& points);
   // Whether `map` has the points it had at the last Build(map).
@@ -86,6 +93,8 @@ class MapPointIndex {
     const Table* table;
     uint32_t key;
   };
+  // The good ones of `points` and their descriptors as the rows (tables cleared).
+  void TakePoints(const std::vector<MapPoint*>& points);
   // Search() of queries [begin, end) into out[begin, end).
   void SearchRange(const std::vector<OrbDescriptor>& queries, size_t begin, size_t end,
                    std::vector<DescriptorNeighbours>* out) const;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <thread>
 
 #include "stages/track/data/map.h"
 #include "stages/track/test_scene.h"
@@ -106,6 +107,32 @@ TEST(MapPointIndexTest, AnyNumberOfThreadsGivesTheSameAnswers) {
   three_threads.threads = 3;
   MapPointIndex a(one_thread), b(three_threads);
   EXPECT_GT(SameAnswers(&a, &b, 1000, 19, 11), 500);  // Found across every chunk of queries.
+}
+
+// Snapshot under the map's lock, tables on another thread (a map just
+// loaded): the same index as Build(map).
+TEST(MapPointIndexTest, TablesBuiltOnAnotherThreadAnswerAsABuildInPlace) {
+  std::mt19937 rng(3);
+  Map map;
+  const std::vector<MapPoint*> points = RandomPoints(&map, 5000, rng);
+  MapPointIndex in_place, in_two_parts;
+  in_place.Build(map);
+  in_two_parts.Snapshot(map);
+  EXPECT_TRUE(in_two_parts.IsCurrent(map));
+  std::thread([&] { in_two_parts.BuildTables(); }).join();
+  std::vector<OrbDescriptor> queries;
+  for (int q = 0; q < 300; ++q) queries.push_back(FlipBits(points[q * 13]->descriptor(), 30, rng));
+  const std::vector<DescriptorNeighbours> a = in_place.Search(queries);
+  const std::vector<DescriptorNeighbours> b = in_two_parts.Search(queries);
+  ASSERT_EQ(a.size(), b.size());
+  int found = 0;
+  for (size_t q = 0; q < a.size(); ++q) {
+    EXPECT_EQ(a[q].first, b[q].first);
+    EXPECT_EQ(a[q].second, b[q].second);
+    EXPECT_EQ(a[q].first_distance, b[q].first_distance);
+    found += b[q].first == points[q * 13];
+  }
+  EXPECT_GT(found, 150);
 }
 
 TEST(MapPointIndexTest, SkipsCulledPointsAndKnowsWhenTheMapChanged) {

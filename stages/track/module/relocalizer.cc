@@ -293,7 +293,24 @@ std::vector<MapPoint*> LocalMapPoints(const Frame& frame, int max_keyframes) {
 
 }  // namespace
 
+void Relocalizer::PrepareIndexInBackground() {
+  if (options_.method == RelocalizationMethod::kBow) return;
+  WaitForBackgroundIndex();
+  const auto start = SteadyClock::now();
+  index_.Snapshot(map_);
+  background_index_ = std::async(std::launch::async, [this, start] {
+    index_.BuildTables();
+    return MillisecondsSince(start);
+  });
+}
+
+double Relocalizer::WaitForBackgroundIndex() {
+  if (background_index_.valid()) background_index_ms_ = background_index_.get();
+  return background_index_ms_;
+}
+
 double Relocalizer::PrepareIndex() {
+  WaitForBackgroundIndex();
   if (options_.method == RelocalizationMethod::kBow || index_.IsCurrent(map_)) return 0;
   const auto start = SteadyClock::now();
   index_.Build(map_);

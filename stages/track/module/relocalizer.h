@@ -46,6 +46,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <future>
 #include <string>
 #include <vector>
 
@@ -181,9 +182,18 @@ class Relocalizer {
   // happened (all but ms).
   KeyFrame* Relocalize(Frame* frame, SolveCounts* solves = nullptr,
                        RelocalizationAttempt* attempt = nullptr);
-  // Builds the direct stage's map-point index now (a map just loaded), unless
-  // the method has no direct stage or it is current; returns the ms it took.
+  // Builds the direct stage's map-point index now, unless the method has no
+  // direct stage or it is current (waiting first for a build started by
+  // PrepareIndexInBackground); returns the ms this call spent building.
   double PrepareIndex();
+  // A map just loaded: the index's points taken now (call under the map's
+  // mutex), its tables built on a thread of their own while tracking starts;
+  // the first direct attempt waits for them (the same index, so the same
+  // poses, as a build in place). Nothing without a direct stage.
+  void PrepareIndexInBackground();
+  // Waits for a build started by PrepareIndexInBackground; the ms of the
+  // last build started that way (snapshot and tables), 0 when none was.
+  double WaitForBackgroundIndex();
 
  private:
   KeyFrame* RelocalizeByBow(Frame* frame, SolveCounts* solves, RelocalizationAttempt* attempt);
@@ -230,6 +240,10 @@ class Relocalizer {
   const Map& map_;
   RelocalizationOptions options_;
   MapPointIndex index_;  // Rebuilt at the first direct attempt after the map changed.
+  // PrepareIndexInBackground's tables under way (their ms when done); after
+  // index_, so that it is joined before index_ goes.
+  std::future<double> background_index_;
+  double background_index_ms_ = 0;
 };
 
 }  // namespace rrslam

@@ -189,6 +189,30 @@ TEST_F(RelocalizerTest, TheDirectStageFindsWhatTheShortlistMisses) {
   EXPECT_EQ(attempt.index_ms, 0);
 }
 
+// A map just loaded: the index built in the background gives the direct
+// stage the pose a build in place gives, and the attempt builds nothing.
+TEST_F(RelocalizerTest, TheIndexBuiltInTheBackgroundGivesTheSamePose) {
+  const KeyFrameDatabase empty(vocabulary_);
+  const Rigid3d T_true = SmallMotion(0.015, -0.01) * truth_[1];
+  Relocalizer in_place(sensor_, empty, map_, WithMethod(RelocalizationMethod::kBowDirect));
+  Relocalizer background(sensor_, empty, map_, WithMethod(RelocalizationMethod::kBowDirect));
+  background.PrepareIndexInBackground();
+  Frame a = QueryFrame(scene_, T_true);
+  Frame b = a;
+  RelocalizationAttempt attempt_a, attempt_b;
+  ASSERT_NE(in_place.Relocalize(&a, nullptr, &attempt_a), nullptr);
+  ASSERT_NE(background.Relocalize(&b, nullptr, &attempt_b), nullptr);
+  EXPECT_GT(attempt_a.index_ms, 0);
+  EXPECT_EQ(attempt_b.index_ms, 0);
+  EXPECT_GT(background.WaitForBackgroundIndex(), 0);
+  EXPECT_EQ(attempt_a.inliers, attempt_b.inliers);
+  EXPECT_EQ(a.T_cam_world().ToMatrix(), b.T_cam_world().ToMatrix());
+  // Without a direct stage nothing is built.
+  Relocalizer bow(sensor_, empty, map_, WithMethod(RelocalizationMethod::kBow));
+  bow.PrepareIndexInBackground();
+  EXPECT_EQ(bow.WaitForBackgroundIndex(), 0);
+}
+
 // A camera 30 degrees round the scene from every keyframe, looking at its
 // middle: the direct stage matches its points wherever they were seen from.
 TEST_F(RelocalizerTest, AViewThirtyDegreesFromEveryKeyFrame) {

@@ -149,7 +149,7 @@ void Tracker::Reset() {
 void Tracker::StartOnLoadedMap() {
   {
     std::lock_guard<std::mutex> lock(map_->mutex());
-    relocalization_index_ms_ = relocalizer_.PrepareIndex();
+    relocalizer_.PrepareIndexInBackground();
   }
   state_ = State::kLost;
   velocity_.reset();

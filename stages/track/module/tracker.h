@@ -159,10 +159,12 @@ class Tracker {
   void Reset();
   // Starts on a map loaded from a file (the paper's start-up): the tracker is
   // lost, so the next frames relocalize in the map; it never resets the map.
-  // Call before the first Track(). Builds relocalization's map-point index
-  // (relocalization_index_ms() says how long that took).
+  // Call before the first Track(). Starts building relocalization's
+  // map-point index on a thread of its own (Relocalizer::
+  // PrepareIndexInBackground; the first direct attempt waits for it).
   void StartOnLoadedMap();
-  double relocalization_index_ms() const { return relocalization_index_ms_; }
+  // That build's ms, once it is done (waits for it); 0 when none was started.
+  double relocalization_index_ms() { return relocalizer_.WaitForBackgroundIndex(); }
   // Atlas (module/atlas.h): the loaded map was set aside; the next frame
   // initializes a new map (its camera the new world frame), which resets as
   // ORB-SLAM2's would (reset_max_keyframes as given). Frames before stay lost.
@@ -244,7 +246,6 @@ class Tracker {
   size_t relocalizations_ = 0;
   std::vector<double> relocalization_ms_;
   std::vector<RelocalizationAttempt> relocalization_attempts_;
-  double relocalization_index_ms_ = 0;
   Relocalizer relocalizer_;
   bool reset_requested_ = false;
   int given_reset_max_keyframes_ = options_.reset_max_keyframes;  // Before StartOnLoadedMap.
