@@ -22,6 +22,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 
 namespace rrslam {
 
@@ -29,5 +30,35 @@ namespace rrslam {
 // refused, e.g. transparent huge pages not built into the kernel, or under a
 // sanitizer's allocator). Never throws; failures only lose the speed-up.
 size_t ReserveHeap(size_t bytes);
+
+// ReserveHeap(bytes), and the first `prefault_bytes` of the reservation made
+// resident by a thread of its own while the caller allocates: the first
+// touches of fresh memory (the kernel zeroing pages, on a virtual machine
+// the host's faults too: most of a big map's load) move off the caller's
+// thread onto an idle core, ahead of the caller's allocations, which come
+// from the reservation in address order. The pages are faulted in with
+// MADV_POPULATE_WRITE (Linux >= 5.14), which does not write their bytes, so
+// it is safe while the heap hands them out; on older kernels, or when
+// nothing was advised, no thread starts. Prefaulted pages are resident
+// whether used or not: give about what the burst will allocate. The thread
+// stops (and is joined) when the object goes. Never throws.
+class HeapReservation {
+ public:
+  HeapReservation(size_t bytes, size_t prefault_bytes);
+  ~HeapReservation();
+  HeapReservation(HeapReservation&&) noexcept;
+  HeapReservation& operator=(HeapReservation&&) = delete;
+  HeapReservation(const HeapReservation&) = delete;
+  HeapReservation& operator=(const HeapReservation&) = delete;
+
+  size_t advised() const { return advised_; }
+  // Bytes made resident so far.
+  size_t prefaulted() const;
+
+ private:
+  struct Prefault;
+  size_t advised_ = 0;
+  std::unique_ptr<Prefault> prefault_;
+};
 
 }  // namespace rrslam

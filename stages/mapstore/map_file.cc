@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <future>
 #include <limits>
 #include <stdexcept>
 #include <system_error>
@@ -648,13 +649,15 @@ Sections FoundSections(const ParsedHeader& h, const std::string& source, size_t 
   return s;
 }
 
-// The whole payload against its checksum: one pass over every byte. Only
-// when it fails are the known sections checked one by one, to name the
-// corrupt one (sections of the map, then of its other maps, in `parts`
-// order); when they all pass, the corruption lies between sections or in a
-// section this version does not know.
-void CheckPayload(const ParsedHeader& h, size_t parts, const std::string& source) {
-  if (Checksum64(h.payload) == h.payload_checksum) return;
+// The whole payload against its checksum: one pass over every byte.
+bool PayloadIntact(const ParsedHeader& h) { return Checksum64(h.payload) == h.payload_checksum; }
+
+// The error of a payload whose checksum failed: the known sections checked
+// one by one name the corrupt one (sections of the map, then of its other
+// maps, `parts` of them); when they all pass, the corruption lies between
+// sections or in a section this version does not know.
+[[noreturn]] void ThrowCorruptPayload(const ParsedHeader& h, size_t parts,
+                                      const std::string& source) {
   for (size_t map = 0; map < parts; ++map) {
     for (int i = 0; i < kNumSections; ++i) CheckedSection(h, i, source, map);
   }
@@ -951,13 +954,25 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
   for (size_t k = 1; k <= kMaxOtherMaps && FindSection(h, kMeta, source, k) != nullptr; ++k) {
     parts.push_back(FoundSections(h, source, k));
   }
-  CheckPayload(h, parts.size(), source);
-  if (mapping != nullptr) mapping->Release(h.payload);  // Read once by the checksum.
-  MapData map = ParsePart(parts[0], source, mapping);
-  for (size_t k = 1; k < parts.size(); ++k) {
-    map.other_maps.push_back(
-        ParsePart(parts[k], source + " (other map " + std::to_string(k) + ")", mapping));
+  // The checksum runs on a thread of its own while the records are parsed
+  // (parsing is safe on any bytes: every count is checked against its
+  // section's size before anything is allocated or read, and the fuzzer
+  // feeds it files with repaired checksums); a corrupt payload is reported
+  // before any other error, as if it had been checked first.
+  std::future<bool> intact = std::async(std::launch::async, [&h] { return PayloadIntact(h); });
+  MapData map;
+  try {
+    map = ParsePart(parts[0], source, mapping);
+    for (size_t k = 1; k < parts.size(); ++k) {
+      map.other_maps.push_back(
+          ParsePart(parts[k], source + " (other map " + std::to_string(k) + ")", mapping));
+    }
+  } catch (const DataError&) {
+    if (!intact.get()) ThrowCorruptPayload(h, parts.size(), source);
+    throw;
   }
+  if (!intact.get()) ThrowCorruptPayload(h, parts.size(), source);
+  if (mapping != nullptr) mapping->Release(h.payload);  // Read by the checksum and the parser.
   ValidateMapData(map, source);
   if (info != nullptr) *info = h.info;
   return map;
@@ -1024,12 +1039,14 @@ MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
   return ParseAll(file.bytes(), path.string(), info, &file);
 }
 
-MapData ReadMapFileReservingHeap(const std::filesystem::path& path, double heap_factor,
-                                 MapFileInfo* info) {
+HeapReservation ReserveHeapForMap(const std::filesystem::path& path, double heap_factor,
+                                  double prefault_factor) {
   std::error_code size_error;
   const uintmax_t file_bytes = std::filesystem::file_size(path, size_error);
-  if (!size_error) ReserveHeap(static_cast<size_t>(heap_factor * static_cast<double>(file_bytes)));
-  return ReadMapFile(path, info);
+  if (size_error) return HeapReservation(0, 0);
+  const double bytes = static_cast<double>(file_bytes);
+  return HeapReservation(static_cast<size_t>(heap_factor * bytes),
+                         static_cast<size_t>(prefault_factor * bytes));
 }
 
 // ---------------------------------------------------------------------------

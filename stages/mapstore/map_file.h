@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "common/heap_reserve.h"
 #include "stages/mapstore/map_data.h"
 
 namespace rrslam {
@@ -63,12 +64,16 @@ MapData ParseMap(std::span<const uint8_t> file, const std::string& source,
 // folder, DataError as ParseMap.
 MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info = nullptr);
 
-// ReadMapFile with the calling thread's heap prepared for what follows
-// (ReserveHeap, common/heap_reserve.h, for `heap_factor` times the file's
-// size: the records alone take about 2x): on a virtual machine the fresh
-// pages' faults are most of a big map's load (docs/mapstore.md).
-MapData ReadMapFileReservingHeap(const std::filesystem::path& path, double heap_factor,
-                                 MapFileInfo* info = nullptr);
+// The calling thread's heap prepared for loading `path` (HeapReservation,
+// common/heap_reserve.h): `heap_factor` times the file's size reserved in
+// huge-page memory, the first `prefault_factor` times it made resident by a
+// thread of its own ahead of the load's allocations (the records alone take
+// about 1x): on a virtual machine the fresh pages' faults are most of a big
+// map's load (docs/mapstore.md). Keep it while the load allocates; the load
+// itself (ReadMapFile, then whatever builds on the records) runs on this
+// thread. Nothing is reserved when the file's size cannot be read.
+HeapReservation ReserveHeapForMap(const std::filesystem::path& path, double heap_factor,
+                                  double prefault_factor);
 
 // The header and section table only (checks the header, not the sections),
 // for `rrslam-mapstore info` on a file whose sections may be corrupt.

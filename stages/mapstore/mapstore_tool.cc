@@ -264,7 +264,8 @@ std::string RunMapInfo(const MapInfoOptions& options) {
 std::string RunMapVerify(const MapVerifyOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
-  const MapData map = ReadMapFileReservingHeap(options.map, 2);
+  const HeapReservation heap = ReserveHeapForMap(options.map, 2, 1);
+  const MapData map = ReadMapFile(options.map);
   std::string text = options.map.string() + ": ok (" + std::to_string(map.keyframes.size()) +
                      " keyframes, " + std::to_string(map.map_points.size()) + " map points)";
   for (size_t k = 0; k < map.other_maps.size(); ++k) {
@@ -284,8 +285,9 @@ std::string RunMapVerify(const MapVerifyOptions& options) {
 std::string RunMapDiff(const MapDiffOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
-  const MapData a = ReadMapFileReservingHeap(options.a, 2);
-  const MapData b = ReadMapFileReservingHeap(options.b, 2);
+  const HeapReservation heap = ReserveHeapForMap(options.a, 4, 2);
+  const MapData a = ReadMapFile(options.a);
+  const MapData b = ReadMapFile(options.b);
   const MapDiff d = DiffMaps(a, b, options.radius);
   char line[256];
   std::string text = "diff " + options.a.string() + " -> " + options.b.string() + " (radius " +
@@ -336,7 +338,11 @@ std::string RunMapAlignFloor(const MapAlignFloorOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
   const std::string name = options.map.string();
-  MapData map = ReadMapFileReservingHeap(options.map, 2);
+  MapData map;
+  {
+    const HeapReservation heap = ReserveHeapForMap(options.map, 2, 1);
+    map = ReadMapFile(options.map);
+  }
   std::optional<RgbdSequence> sequence;
   if (!options.sequence.empty()) sequence = RgbdSequence::Open(options.sequence);
   const std::vector<Eigen::Vector3d> points =

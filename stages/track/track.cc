@@ -506,9 +506,11 @@ class TrackSession {
     const auto map_start = SteadyClock::now();
     const std::string source = options_.load_map.string();
     // The load's allocations (the file's records, then the live map: about
-    // four times the file's size) on this thread, in huge-page memory.
+    // twice the file's size) on this thread, in huge-page memory reserved
+    // for four times it, the part they use made resident meanwhile.
+    const HeapReservation heap = ReserveHeapForMap(options_.load_map, 4, 1.75);
     MapFileInfo info;
-    MapData data = ReadMapFileReservingHeap(options_.load_map, 4, &info);
+    MapData data = ReadMapFile(options_.load_map, &info);
     CheckMapCompatible(data, camera_, vocabulary_, source);
     TrackStartup& startup = summary_.startup;
     startup.map_read_ms = MillisecondsSince(map_start);
