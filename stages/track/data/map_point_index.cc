@@ -107,21 +107,32 @@ void MapPointIndex::BuildTables() {
   std::mt19937_64 rng(options_.seed);
   std::vector<int> all(8 * sizeof(OrbDescriptor));
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
-  for (int t = 0; t < options_.tables; ++t) {
-    Table& table = tables_.emplace_back();
+  tables_.resize(static_cast<size_t>(options_.tables));
+  for (Table& table : tables_) {
     std::shuffle(all.begin(), all.end(), rng);
     table.bits.assign(all.begin(), all.begin() + options_.key_bits);
-    // Rows sorted by key (then row), each key's rows one bucket.
-    std::vector<std::pair<uint32_t, uint32_t>> keyed = SortedByKey(table);
-    size_t capacity = 2;
-    while (capacity < 2 * keyed.size()) capacity *= 2;
-    table.slots.assign(capacity, {});
-    table.rows.resize(keyed.size());
-    for (size_t i = 0; i < keyed.size(); ++i) {
-      table.rows[i] = keyed[i].second;
-      Table::Slot& slot = table.Insert(keyed[i].first);
-      if (slot.count++ == 0) slot.offset = static_cast<uint32_t>(i);
-    }
+  }
+  // Tables are independent once their bits are drawn: on the pool's threads.
+  const auto fill = [this](size_t t) { FillTable(&tables_[t]); };
+  if (pool_) {
+    pool_->ParallelFor(tables_.size(), fill);
+  } else {
+    for (size_t t = 0; t < tables_.size(); ++t) fill(t);
+  }
+}
+
+void MapPointIndex::FillTable(Table* table_out) const {
+  Table& table = *table_out;
+  // Rows sorted by key (then row), each key's rows one bucket.
+  const std::vector<std::pair<uint32_t, uint32_t>> keyed = SortedByKey(table);
+  size_t capacity = 2;
+  while (capacity < 2 * keyed.size()) capacity *= 2;
+  table.slots.assign(capacity, {});
+  table.rows.resize(keyed.size());
+  for (size_t i = 0; i < keyed.size(); ++i) {
+    table.rows[i] = keyed[i].second;
+    Table::Slot& slot = table.Insert(keyed[i].first);
+    if (slot.count++ == 0) slot.offset = static_cast<uint32_t>(i);
   }
 }
 

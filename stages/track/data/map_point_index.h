@@ -107,6 +107,8 @@ class MapPointIndex {
                       DescriptorNeighbours* n) const;
   // Keys of up to this many bits may be sorted by counting (2^bits counters).
   static constexpr int kCountingSortMaxBits = 24;
+  // The slots and rows of `table` (its bits drawn) from descriptors_.
+  void FillTable(Table* table) const;
   // (key, row) of every row in `table`, sorted.
   std::vector<std::pair<uint32_t, uint32_t>> SortedByKey(const Table& table) const;
   MapPointIndexOptions options_;
