@@ -275,7 +275,11 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
   std::future<void> database_added =
       std::async(std::launch::async, [database, &keyframes] { database->AddAll(keyframes); });
 
-  // Map points with their observations (both sides).
+  // Map points (their allocations on this thread), then their observations
+  // (both sides) on two threads: each observation is one keyframe's keypoint
+  // slot, of one point (ValidateMapData), and the points' lists have their
+  // room already, so the threads share nothing they write. Mostly cache
+  // misses on a big map (a random keyframe per observation).
   std::vector<MapPoint*> points;
   points.reserve(data.map_points.size());
   for (MapPointRecord& r : data.map_points) {
@@ -287,12 +291,19 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
     p->SetDescriptor(r.descriptor);
     p->RestoreSaved(r.visible, r.found, r.first_keyframe);
     p->ReserveObservations(r.observations.size());
-    for (const auto& [kf_id, index] : r.observations) {
-      map->AddObservation(p, keyframe(kf_id), index);
-    }
-    r.observations = {};  // As the keypoints above.
     points.push_back(p);
   }
+  constexpr size_t kPointsPerTask = 4096;
+  WorkerPool observers(2);
+  observers.ParallelFor((points.size() + kPointsPerTask - 1) / kPointsPerTask, [&](size_t t) {
+    for (size_t i = t * kPointsPerTask; i < std::min(points.size(), (t + 1) * kPointsPerTask);
+         ++i) {
+      for (const auto& [kf_id, index] : data.map_points[i].observations) {
+        map->AddObservation(points[i], keyframe(kf_id), index);
+      }
+    }
+  });
+  for (MapPointRecord& r : data.map_points) r.observations = {};  // As the keypoints above.
   map->ReserveIds(data.next_keyframe_id, data.next_map_point_id);
 
   // Graph: covisibility, spanning tree, loop edges. The root (no parent)

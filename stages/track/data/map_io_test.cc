@@ -5,6 +5,7 @@
 #include <random>
 
 #include "common/errors.h"
+#include "stages/mapstore/map_compose.h"
 #include "stages/mapstore/map_file.h"
 #include "stages/track/test_scene.h"
 
@@ -133,6 +134,27 @@ TEST_F(MapIoTest, LoadThenSaveIsByteIdentical) {
   EXPECT_EQ(loaded.CreateKeyFrame(frame)->id(), 8u);
   EXPECT_EQ(loaded.CreateMapPoint(Eigen::Vector3d(0, 0, 2), nullptr)->id(),
             map_.num_created_map_points());
+}
+
+// A map of many points (their observations are restored on two threads):
+// load -> save is still byte-identical.
+TEST_F(MapIoTest, ABigMapRoundTripsByteIdentically) {
+  ComposeOptions compose;
+  compose.copies = 30;
+  const MapData big = ComposeMap(Save(map_), compose, [&](KeyFrameRecord* kf) {
+    BowVector bow;
+    FeatureVector features;
+    vocabulary_.Transform(kf->descriptors, &bow, &features, 1);
+    kf->bow.assign(bow.entries.begin(), bow.entries.end());
+    kf->feature_vector.assign(features.entries.begin(), features.entries.end());
+  });
+  ASSERT_GT(big.map_points.size(), 10000u);
+  const std::vector<uint8_t> bytes = EncodeMap(big);
+  Map loaded;
+  KeyFrameDatabase database(vocabulary_);
+  LoadMapData(ParseMap(bytes, "big.rrm"), sensor_, vocabulary_, 1, &loaded, &database, "big.rrm");
+  EXPECT_EQ(EncodeMap(Save(loaded)), bytes);
+  EXPECT_EQ(loaded.num_map_points(), big.map_points.size());
 }
 
 TEST_F(MapIoTest, FeatureVectorsAreRecomputedForAnotherGrouping) {
