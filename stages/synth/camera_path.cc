@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "stages/synth/building.h"
+
 namespace rrslam::synth {
 namespace {
 
@@ -44,13 +46,15 @@ std::string TrajectoryKindName(TrajectoryKind kind) {
       return "shake";
     case TrajectoryKind::kTurn:
       return "turn";
+    case TrajectoryKind::kTour:
+      return "tour";
   }
   return "unknown";
 }
 
 bool ParseTrajectoryKind(const std::string& name, TrajectoryKind* kind) {
   for (TrajectoryKind k : {TrajectoryKind::kLoop, TrajectoryKind::kSweep, TrajectoryKind::kRotation,
-                           TrajectoryKind::kShake, TrajectoryKind::kTurn}) {
+                           TrajectoryKind::kShake, TrajectoryKind::kTurn, TrajectoryKind::kTour}) {
     if (name == TrajectoryKindName(k)) {
       *kind = k;
       return true;
@@ -79,6 +83,7 @@ Rigid3d CameraPath::PoseFromAngles(const Eigen::Vector3d& centre_world, double y
 }
 
 Rigid3d CameraPath::T_world_cam(double t) const {
+  if (kind_ == TrajectoryKind::kTour) return TourPose(t);
   const double T = duration_;
   const double s = T > 0 ? t / T : 0.0;  // Phase; the path has period 1 in s.
   // Hand-held swings shared by all paths: pitch, roll and a little height.
@@ -131,6 +136,8 @@ Rigid3d CameraPath::T_world_cam(double t) const {
       return PoseFromAngles(Eigen::Vector3d(0.0, -0.4, 1.35 + bob), yaw, -10 * kDeg + pitch_swing,
                             roll);
     }
+    case TrajectoryKind::kTour:
+      break;  // TourPose above.
     case TrajectoryKind::kShake: {
       // Every term is a Swing: a whole number of cycles per sequence (so the
       // path is periodic) at about its frequency (Hz; unrelated to the other
@@ -169,6 +176,21 @@ Rigid3d CameraPath::T_world_cam(double t) const {
     }
   }
   return Rigid3d();
+}
+
+Rigid3d CameraPath::TourPose(double t) {
+  // The route gives the place and the gaze's yaw; the hand-held swings are
+  // whole cycles per tour (so the tour stays periodic), as for the other
+  // paths, with the tour's period as the duration.
+  const BuildingTour& tour = BuildingTour::Get();
+  const double T = tour.duration();
+  const double s = t / T;
+  const BuildingTour::Place place = tour.At(t);
+  const double pitch_swing = Swing(s, T, 3 * kDeg, 0.1, 3 * kDeg, 0.7);
+  const double roll = Swing(s, T, 2 * kDeg, 0.2, 2 * kDeg, 2.1);
+  const double bob = Swing(s, T, 0.04, 0.12, 0.04, 1.3);
+  const Eigen::Vector3d centre(place.position.x(), place.position.y(), 1.4 + bob);
+  return PoseFromAngles(centre, place.yaw, -12 * kDeg + pitch_swing, roll);
 }
 
 Trajectory MakeTrajectory(TrajectoryKind kind, int frames, double fps, double start_time) {

@@ -1,4 +1,5 @@
-// Camera paths through the standard room (scene.h) with exact ground truth.
+// Camera paths through the standard room (scene.h), and the tour of the
+// building (building.h), with exact ground truth.
 //
 // A path is a smooth, periodic function of time: the pose at time t (seconds)
 // for a sequence lasting `duration` seconds, with the first and the last
@@ -13,8 +14,9 @@
 // or slowing to a crawl). The exception is shake, which exercises fast
 // rotation: mostly 60 to 120 deg/s (2 to 4 degrees between frames at 30 fps),
 // never above 135 deg/s, likewise for every duration. The camera stays in the
-// free middle of the room, at least 0.5 m from every surface. Immutable;
-// thread-safe.
+// free middle of the room, at least 0.5 m from every surface. The tour walks
+// a little faster (up to about 0.5 m/s) and keeps 0.5 m from every surface of
+// the building. Immutable; thread-safe.
 #pragma once
 
 #include <string>
@@ -59,24 +61,36 @@ enum class TrajectoryKind {
   // 180 degrees from north (the turn's peak stays at 20 deg/s). The atlas's
   // test (track/module/atlas.h): a new map, then a merge into the sweep's.
   kTurn,
+  // The tour of the building (SceneKind::kBuilding; building.h: the route):
+  // a walk through all six rooms and back over the corridor's first stretch,
+  // at a walking pace (at most about 0.5 m/s and 25 deg/s) with the camera
+  // 1.4 m high (+-4 cm), pitched 12 deg down (+-3 deg) with +-1.6 deg of roll,
+  // looking sideways or diagonally at walls and furniture. Unlike the paths
+  // above it does not scale with the sequence: one tour lasts
+  // BuildingTour::Get().duration() seconds (222.5 s, 6675 frames at 30 fps);
+  // a shorter sequence walks the first part of it, a longer one walks it
+  // again (the tour is periodic: its end is its start, with the same
+  // velocity). Only valid in the building.
+  kTour,
 };
 
-// "loop", "sweep", "rotation", "shake", "turn".
+// "loop", "sweep", "rotation", "shake", "turn", "tour".
 std::string TrajectoryKindName(TrajectoryKind kind);
 // Parses a name of TrajectoryKindName; false when unknown.
 bool ParseTrajectoryKind(const std::string& name, TrajectoryKind* kind);
 
 class CameraPath {
  public:
-  // `duration` in seconds (>= 0; 0 gives a single, static pose).
+  // `duration` in seconds (>= 0; 0 gives a single, static pose). The tour
+  // ignores it (its period is one tour).
   CameraPath(TrajectoryKind kind, double duration);
 
   TrajectoryKind kind() const { return kind_; }
   double duration() const { return duration_; }
 
   // Camera pose at time t (seconds from the start). Defined for every t: the
-  // path is periodic with period `duration`, so exposure intervals around the
-  // first and last frames are well defined.
+  // path is periodic with period `duration` (the tour: one tour), so exposure
+  // intervals around the first and last frames are well defined.
   Rigid3d T_world_cam(double t) const;
 
   // Camera pose from a centre and yaw (about world z, 0 = looking along +x),
@@ -85,6 +99,9 @@ class CameraPath {
                                 double roll);
 
  private:
+  // The tour's pose at t seconds (periodic with one tour's duration).
+  static Rigid3d TourPose(double t);
+
   TrajectoryKind kind_;
   double duration_;
 };

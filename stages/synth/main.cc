@@ -14,14 +14,22 @@ void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
                  "when empty or an earlier rrslam-synth output (else exit 73, nothing touched)")
       ->required();
   app.add_option_function<std::string>(
+         "--scene",
+         [o](const std::string& name) { rrslam::synth::ParseSceneKind(name, &o->scene); },
+         "Scene: standard (one furnished 6 x 5 m room) or building (six furnished rooms along a "
+         "16 m corridor, walked by --trajectory tour only; no --change)")
+      ->check(CLI::IsMember({"standard", "building"}))
+      ->default_str(rrslam::synth::SceneKindName(o->scene));
+  app.add_option_function<std::string>(
          "--trajectory",
          [o](const std::string& name) { rrslam::synth::ParseTrajectoryKind(name, &o->trajectory); },
          "Camera path: loop (closed loop, ends at its start), sweep (there and back), rotation "
          "(pan in place), shake (fast hand-held roll/pitch/yaw shaking in place, 40-140 deg/s with "
          "tremor; "
          "motion blur on by default), turn (stands looking south, turns to look north: onto the "
-         "sweep's view)")
-      ->check(CLI::IsMember({"loop", "sweep", "rotation", "shake", "turn"}))
+         "sweep's view): all in the standard room; tour (--scene building only: a walk through "
+         "all its rooms and back over the corridor, 222.5 s per tour, repeated)")
+      ->check(CLI::IsMember({"loop", "sweep", "rotation", "shake", "turn", "tour"}))
       ->default_str(rrslam::synth::TrajectoryKindName(o->trajectory));
   app.add_option("--frames", o->frames, "Number of frames [1, 100000]")->capture_default_str();
   app.add_option("--fps", o->fps, "Frame rate, Hz; frame i is at i / fps seconds")
@@ -75,7 +83,7 @@ void BindSynthOptions(CLI::App& app, rrslam::SynthOptions* o) {
   app.add_option("--change", o->scene_change,
                  "Scene edit: none (the standard room) or moved-box (the screen moves from the "
                  "table to the floor and a new crate appears; all else bit-identical; synth.json "
-                 "records where)")
+                 "records where); standard room only")
       ->capture_default_str();
   app.add_option("--threads", o->threads, "Worker threads; 0 = all cores (same output)")
       ->capture_default_str();
@@ -88,7 +96,8 @@ int main(int argc, char** argv) {
   return rrslam::RunTool(
       argc, argv,
       {"synth",
-       "Renders a TUM-layout RGB-D sequence of a textured room with exact ground truth "
+       "Renders a TUM-layout RGB-D sequence of a textured room or building with exact ground "
+       "truth "
        "(rgb/, depth/, rgb.txt, depth.txt, associations.txt, groundtruth.txt, settings.yaml, "
        "synth.json)."},
       [&](CLI::App& app) { BindSynthOptions(app, &options); }, [&] { rrslam::RunSynth(options); });

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "common/worker_pool.h"
+#include "stages/synth/building.h"
 #include "stages/synth/random.h"
 
 namespace rrslam::synth {
@@ -44,7 +45,11 @@ Box Box::Object(std::string name, const Eigen::Vector3d& centre, const Eigen::Ve
 }
 
 Scene::Scene(const std::vector<Box>& boxes, const SceneOptions& options)
-    : boxes_(boxes), options_(options) {
+    : Scene(boxes, StandardRoomLights(), options) {}
+
+Scene::Scene(const std::vector<Box>& boxes, const std::vector<PointLight>& lights,
+             const SceneOptions& options)
+    : boxes_(boxes), lights_(lights), options_(options) {
   if (!(options.texel_size >= 0.0005 && options.texel_size <= 0.05)) {
     throw std::invalid_argument("Scene: texel_size must be in [0.0005, 0.05] m");
   }
@@ -82,8 +87,6 @@ Scene::Scene(const std::vector<Box>& boxes, const SceneOptions& options)
     }
   }
 
-  lights_ = {{Eigen::Vector3d(-1.3, 0.6, 2.65), 0.6}, {Eigen::Vector3d(1.4, -0.5, 2.65), 0.6}};
-
   // Textures, one per surface, generated on several threads: surface i's
   // texture depends only on (seed, i), so the result does not depend on the
   // thread count or scheduling.
@@ -105,6 +108,10 @@ Scene::Scene(const std::vector<Box>& boxes, const SceneOptions& options)
 
 Scene Scene::StandardRoom(const SceneOptions& options) {
   return Scene(StandardRoomBoxes(), options);
+}
+
+Scene Scene::Building(const SceneOptions& options) {
+  return Scene(BuildingBoxes(), BuildingLights(), options);
 }
 
 std::optional<RayHit> Scene::RayCast(const Eigen::Vector3d& origin_world,
@@ -231,6 +238,30 @@ std::vector<Box> StandardRoomBoxes() {
   boxes.push_back(Box::Object("lamp1", V(1.4, -0.5, 2.85), V(0.45, 0.45, 0.3), Material::kPainted,
                               0.0, kFacePosZ));
   return boxes;
+}
+
+std::vector<PointLight> StandardRoomLights() {
+  return {{Eigen::Vector3d(-1.3, 0.6, 2.65), 0.6}, {Eigen::Vector3d(1.4, -0.5, 2.65), 0.6}};
+}
+
+std::string SceneKindName(SceneKind kind) {
+  switch (kind) {
+    case SceneKind::kStandard:
+      return "standard";
+    case SceneKind::kBuilding:
+      return "building";
+  }
+  return "unknown";
+}
+
+bool ParseSceneKind(const std::string& name, SceneKind* kind) {
+  for (SceneKind k : {SceneKind::kStandard, SceneKind::kBuilding}) {
+    if (name == SceneKindName(k)) {
+      *kind = k;
+      return true;
+    }
+  }
+  return false;
 }
 
 Eigen::AlignedBox3d BoxBounds(const Box& box) {

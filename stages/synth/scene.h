@@ -3,7 +3,8 @@
 //
 // World frame: metres, z up (gravity along -z). The standard room spans
 // x in [-3, 3], y in [-2.5, 2.5], z in [0, 3]; its middle (radius 1.55 m
-// around the z axis) is kept free for the camera paths of camera_path.h.
+// around the z axis) is kept free for the camera paths of camera_path.h. The
+// building (building.h) is another list of boxes with its own lights.
 //
 // Every surface is one-sided: it is visible only from the side its normal
 // points to. Boxes are closed and seen from outside, the room from inside, so
@@ -104,12 +105,19 @@ struct SceneOptions {
 class Scene {
  public:
   // Builds the surfaces of `boxes` and generates their textures (surface i's
-  // from options.seed and i only). Throws std::invalid_argument when
+  // from options.seed and i only), lit by the standard room's two ceiling
+  // lights (StandardRoomLights()). Throws std::invalid_argument when
   // options.texel_size is outside [0.0005, 0.05].
   Scene(const std::vector<Box>& boxes, const SceneOptions& options);
+  // The same with the given lights.
+  Scene(const std::vector<Box>& boxes, const std::vector<PointLight>& lights,
+        const SceneOptions& options);
 
   // The standard furnished room of rrslam-synth (StandardRoomBoxes()).
   static Scene StandardRoom(const SceneOptions& options);
+  // The building of rrslam-synth --scene building (building.h:
+  // BuildingBoxes(), BuildingLights()).
+  static Scene Building(const SceneOptions& options);
 
   const std::vector<Surface>& surfaces() const { return surfaces_; }
   const Surface& surface(int id) const { return surfaces_.at(id); }
@@ -153,6 +161,19 @@ class Scene {
 // The boxes of the standard room: the room itself (walls, floor, ceiling),
 // tables, cabinet, shelf, sofa, crates, a column, a lamp and wall posters.
 std::vector<Box> StandardRoomBoxes();
+
+// The standard room's two lights, 0.35 m under its ceiling.
+std::vector<PointLight> StandardRoomLights();
+
+// The scenes of rrslam-synth (--scene).
+enum class SceneKind {
+  kStandard,  // The standard room (StandardRoomBoxes()), with its SceneChange edits.
+  kBuilding,  // The building: six rooms along a corridor (building.h).
+};
+// "standard", "building".
+std::string SceneKindName(SceneKind kind);
+// Parses a name of SceneKindName; false when unknown.
+bool ParseSceneKind(const std::string& name, SceneKind* kind);
 
 // Free space of the standard room kept clear for cameras: no object comes
 // closer than this to the room's vertical axis (x = y = 0) below 2.5 m.

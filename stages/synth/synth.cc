@@ -21,6 +21,7 @@
 #include "common/json_text.h"
 #include "common/progress.h"
 #include "common/worker_pool.h"
+#include "stages/synth/building.h"
 #include "stages/synth/renderer.h"
 #include "stages/synth/scene.h"
 #include "stages/synth/sensor.h"
@@ -150,8 +151,31 @@ bool SynthOptions::Check(std::string* why) const {
   if (!synth::ParseSceneChange(scene_change, &change)) {
     return Fail(why, "scene_change = " + scene_change + "; must be " + synth::SceneChangeNames());
   }
+  if (!CheckSceneAndTrajectory(why)) return false;
   if (threads < 0 || threads > 256) {
     return Fail(why, "threads = " + std::to_string(threads) + "; must be in [0, 256]");
+  }
+  return true;
+}
+
+bool SynthOptions::CheckSceneAndTrajectory(std::string* why) const {
+  const bool building = scene == synth::SceneKind::kBuilding;
+  const bool tour = trajectory == synth::TrajectoryKind::kTour;
+  const std::string trajectory_name = synth::TrajectoryKindName(trajectory);
+  if (building && scene_change != "none") {
+    return Fail(why, "scene_change = " + scene_change +
+                         "; must be none with scene = building (--change " + scene_change +
+                         " edits the standard room, not --scene building)");
+  }
+  if (building && !tour) {
+    return Fail(why, "trajectory = " + trajectory_name +
+                         "; must be tour with scene = building (--scene building is walked by "
+                         "--trajectory tour only)");
+  }
+  if (!building && tour) {
+    return Fail(why,
+                "trajectory = tour; must be loop, sweep, rotation, shake or turn with scene = " +
+                    synth::SceneKindName(scene) + " (--trajectory tour needs --scene building)");
   }
   return true;
 }
@@ -202,6 +226,7 @@ Settings SynthOptions::MakeSettings() const {
 std::string SynthOptions::ToJson() const {
   const PinholeCamera camera = Camera();
   nlohmann::ordered_json j;
+  j["scene"] = synth::SceneKindName(scene);
   j["trajectory"] = synth::TrajectoryKindName(trajectory);
   j["frames"] = frames;
   j["fps"] = fps;
@@ -241,9 +266,13 @@ SyntheticSequence::SyntheticSequence(const SynthOptions& options)
   scene_options.seed = options_.seed;
   scene_options.texel_size = options_.texel_size;
   scene_options.num_threads = ResolveThreads(options_.threads);
-  synth::SceneChange change = synth::SceneChange::kNone;
-  synth::ParseSceneChange(options_.scene_change, &change);  // Valid: Check passed.
-  scene_ = std::make_unique<synth::Scene>(synth::ChangedRoomBoxes(change), scene_options);
+  if (options_.scene == synth::SceneKind::kBuilding) {
+    scene_ = std::make_unique<synth::Scene>(synth::Scene::Building(scene_options));
+  } else {
+    synth::SceneChange change = synth::SceneChange::kNone;
+    synth::ParseSceneChange(options_.scene_change, &change);  // Valid: Check passed.
+    scene_ = std::make_unique<synth::Scene>(synth::ChangedRoomBoxes(change), scene_options);
+  }
   renderer_ = std::make_unique<synth::Renderer>(*scene_, camera_);
 }
 
@@ -343,12 +372,15 @@ void RunSynth(const SynthOptions& options) {
   const fs::path dir = output.temp_path();
 
   const auto start = std::chrono::steady_clock::now();
-  spdlog::info("building the room (texel size {} m, seed {})", options.texel_size, options.seed);
+  const std::string scene_name = options.scene == synth::SceneKind::kBuilding ? "building" : "room";
+  spdlog::info("setting up the {} (texel size {} m, seed {})", scene_name, options.texel_size,
+               options.seed);
   const SyntheticSequence sequence(options);
   const double scene_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  spdlog::info("room built in {:.2f} s: {} surfaces, {:.0f} MB of textures", scene_seconds,
-               sequence.scene().surfaces().size(), sequence.scene().TextureBytes() / 1e6);
+  spdlog::info("{} set up in {:.2f} s: {} surfaces, {:.0f} MB of textures", scene_name,
+               scene_seconds, sequence.scene().surfaces().size(),
+               sequence.scene().TextureBytes() / 1e6);
 
   std::error_code ec;
   for (const char* sub : {"rgb", "depth"}) {
@@ -411,8 +443,14 @@ void RunSynth(const SynthOptions& options) {
   info["producer"] = Producer("synth");
   info["options"] = nlohmann::ordered_json::parse(options.ToJson());
   info["duration_s"] = sequence.duration();
+  if (options.trajectory == synth::TrajectoryKind::kTour) {
+    // The tour repeats after this long (a shorter sequence is its first part).
+    info["tour_duration_s"] = synth::BuildingTour::Get().duration();
+  }
   info["depth_map_factor"] = kDepthMapFactor;
-  info["world_frame"] = "metres, z up; room x in [-3, 3], y in [-2.5, 2.5], z in [0, 3]";
+  info["world_frame"] = options.scene == synth::SceneKind::kBuilding
+                            ? "metres, z up; building x in [0, 16.2], y in [0, 12.6], z in [0, 2.8]"
+                            : "metres, z up; room x in [-3, 3], y in [-2.5, 2.5], z in [0, 3]";
   info["camera_frame"] = "x right, y down, z forward; depth = z";
   nlohmann::ordered_json surfaces = nlohmann::ordered_json::array();
   for (const synth::Surface& s : sequence.scene().surfaces()) surfaces.push_back(s.name);

@@ -1,5 +1,6 @@
-// rrslam-synth: renders a TUM-layout RGB-D sequence of a textured room with
-// exact ground truth (see docs/synth.md).
+// rrslam-synth: renders a TUM-layout RGB-D sequence of a textured room (or of
+// a building of six rooms, building.h) with exact ground truth (see
+// docs/synth.md).
 //
 // Output folder (written atomically: OUT.XXXXXX.tmp, then renamed to OUT; an
 // existing OUT is replaced only when it is empty or an earlier rrslam-synth
@@ -31,6 +32,7 @@
 #include "common/settings.h"
 #include "common/trajectory.h"
 #include "stages/synth/camera_path.h"
+#include "stages/synth/scene.h"
 
 namespace rrslam {
 
@@ -45,8 +47,12 @@ struct SynthOptions {
   // Output sequence folder; its parent must exist. An existing folder is
   // replaced as a whole only when it is empty or an earlier rrslam-synth output.
   std::filesystem::path out;
-  // Camera path: loop, sweep, rotation or shake (camera_path.h). Sets the
-  // default of motion_blur.
+  // Scene: the standard room or the building (synth::SceneKind, scene.h;
+  // building.h).
+  synth::SceneKind scene = synth::SceneKind::kStandard;
+  // Camera path (camera_path.h): loop, sweep, rotation, shake or turn in the
+  // standard room; tour in the building (the only path there, and only
+  // there). Sets the default of motion_blur.
   synth::TrajectoryKind trajectory = synth::TrajectoryKind::kLoop;
   // Number of frames; in [1, 100000].
   int frames = 300;
@@ -103,13 +109,17 @@ struct SynthOptions {
   // room; "moved-box" moves the screen and adds a crate, leaving everything
   // else bit-identical (same textures, camera path and noise), so that a map of
   // the standard room can be checked against the changed one. synth.json
-  // records where the room changed.
+  // records where the room changed. The building has no changes: "none" only.
   std::string scene_change = "none";
   // Worker threads; 0 = all hardware threads; in [0, 256]. The output does not
   // depend on it.
   int threads = 0;
 
   bool Check(std::string* why) const;
+  // The part of Check() that pairs scene, trajectory and scene_change: the
+  // building is walked by the tour only and has no scene changes; the tour
+  // walks only the building.
+  bool CheckSceneAndTrajectory(std::string* why) const;
 
   // motion_blur, or the trajectory's default when it is unset; pixels.
   double MotionBlur() const;

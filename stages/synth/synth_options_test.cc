@@ -71,6 +71,14 @@ TEST(SynthOptions, EachConstraintFails) {
       {"scene_change", [](SynthOptions& o) { o.scene_change = "foo"; }},
       {"scene_change", [](SynthOptions& o) { o.scene_change = ""; }},
       {"scene_change", [](SynthOptions& o) { o.scene_change = "Moved-Box"; }},
+      {"scene_change",
+       [](SynthOptions& o) {
+         o.scene = synth::SceneKind::kBuilding;
+         o.trajectory = synth::TrajectoryKind::kTour;
+         o.scene_change = "moved-box";
+       }},
+      {"trajectory", [](SynthOptions& o) { o.scene = synth::SceneKind::kBuilding; }},
+      {"trajectory", [](SynthOptions& o) { o.trajectory = synth::TrajectoryKind::kTour; }},
   };
   for (const Case& c : cases) {
     SynthOptions options;
@@ -314,10 +322,61 @@ TEST(SynthOptions, SceneChange) {
   EXPECT_EQ(synth::SceneChangeName(synth::SceneChange::kMovedBox), "moved-box");
 }
 
+// The building is walked by the tour only, and has no scene changes; the
+// tour walks only the building. Each wrong pair is one line naming both
+// options.
+TEST(SynthOptions, SceneAndTrajectoryGoTogether) {
+  SynthOptions o;
+  EXPECT_EQ(o.scene, synth::SceneKind::kStandard);  // The standard room by default.
+  EXPECT_NE(o.ToJson().find("\"scene\":\"standard\",\"trajectory\":\"loop\""), std::string::npos)
+      << o.ToJson();
+  std::string why;
+  o.scene = synth::SceneKind::kBuilding;
+  o.trajectory = synth::TrajectoryKind::kTour;
+  EXPECT_TRUE(o.Check(&why)) << why;
+  EXPECT_NE(o.ToJson().find("\"scene\":\"building\",\"trajectory\":\"tour\""), std::string::npos)
+      << o.ToJson();
+  EXPECT_EQ(o.MotionBlur(), 0.0);  // Sharp, as the other walks.
+
+  o.scene_change = "moved-box";
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_EQ(why,
+            "scene_change = moved-box; must be none with scene = building (--change moved-box "
+            "edits the standard room, not --scene building)");
+  EXPECT_THROW(SyntheticSequence sequence(o), UsageError);
+  o.scene_change = "none";
+  for (auto kind : {synth::TrajectoryKind::kLoop, synth::TrajectoryKind::kSweep,
+                    synth::TrajectoryKind::kRotation, synth::TrajectoryKind::kShake,
+                    synth::TrajectoryKind::kTurn}) {
+    o.trajectory = kind;
+    EXPECT_FALSE(o.Check(&why)) << synth::TrajectoryKindName(kind);
+    EXPECT_EQ(why, "trajectory = " + synth::TrajectoryKindName(kind) +
+                       "; must be tour with scene = building (--scene building is walked by "
+                       "--trajectory tour only)");
+  }
+  o.scene = synth::SceneKind::kStandard;
+  o.trajectory = synth::TrajectoryKind::kTour;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_EQ(why,
+            "trajectory = tour; must be loop, sweep, rotation, shake or turn with scene = standard "
+            "(--trajectory tour needs --scene building)");
+  EXPECT_THROW(SyntheticSequence sequence(o), UsageError);
+
+  for (auto kind : {synth::SceneKind::kStandard, synth::SceneKind::kBuilding}) {
+    synth::SceneKind parsed = synth::SceneKind::kStandard;
+    ASSERT_TRUE(synth::ParseSceneKind(synth::SceneKindName(kind), &parsed));
+    EXPECT_EQ(parsed, kind);
+  }
+  synth::SceneKind parsed;
+  EXPECT_FALSE(synth::ParseSceneKind("house", &parsed));
+}
+
 TEST(SynthOptions, TrajectoryNamesRoundTrip) {
   EXPECT_EQ(synth::TrajectoryKindName(synth::TrajectoryKind::kShake), "shake");
+  EXPECT_EQ(synth::TrajectoryKindName(synth::TrajectoryKind::kTour), "tour");
   for (auto kind : {synth::TrajectoryKind::kLoop, synth::TrajectoryKind::kSweep,
-                    synth::TrajectoryKind::kRotation, synth::TrajectoryKind::kShake}) {
+                    synth::TrajectoryKind::kRotation, synth::TrajectoryKind::kShake,
+                    synth::TrajectoryKind::kTurn, synth::TrajectoryKind::kTour}) {
     synth::TrajectoryKind parsed = synth::TrajectoryKind::kLoop;
     ASSERT_TRUE(synth::ParseTrajectoryKind(synth::TrajectoryKindName(kind), &parsed));
     EXPECT_EQ(parsed, kind);

@@ -564,6 +564,38 @@ TEST_F(SynthTool, ChangeNamesItsValuesAndRejectsOthers) {
   EXPECT_FALSE(fs::exists(dir_ / "bad"));
 }
 
+// The building: walked by the tour only, without scene changes; the tour
+// walks nothing else. Wrong pairs are usage errors naming both options.
+TEST_F(SynthTool, BuildingGoesWithTheTourOnly) {
+  auto result = testing::RunTool(
+      "synth", "--out " + (dir_ / "seq").string() + small_ + " --scene building --trajectory tour");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  const auto info = nlohmann::json::parse(ReadFileToString(dir_ / "seq" / "synth.json"));
+  EXPECT_EQ(info["options"]["scene"], "building");
+  EXPECT_EQ(info["options"]["trajectory"], "tour");
+  EXPECT_EQ(info["scene_change"]["name"], "none");
+  EXPECT_EQ(info["surfaces"][0], "building.+x");
+  EXPECT_EQ(RgbdSequence::Open(dir_ / "seq").size(), 3u);
+
+  const fs::path bad = dir_ / "bad";
+  for (const auto& [args, message] :
+       {std::pair<std::string, std::string>{
+            " --scene building --trajectory tour --change moved-box",
+            "--change moved-box edits the standard room, not "
+            "--scene building"},
+        {" --scene standard --trajectory tour", "--trajectory tour needs --scene building"},
+        {" --trajectory tour", "--trajectory tour needs --scene building"},
+        {" --scene building", "--scene building is walked by --trajectory tour only"},
+        {" --scene building --trajectory sweep",
+         "--scene building is walked by --trajectory tour only"},
+        {" --scene house --trajectory tour", "--scene"}}) {
+    result = testing::RunTool("synth", "--out " + bad.string() + small_ + args);
+    EXPECT_EQ(result.exit_code, 64) << args << "\n" << result.output;
+    EXPECT_NE(result.output.find(message), std::string::npos) << args << "\n" << result.output;
+    EXPECT_FALSE(fs::exists(bad)) << args;
+  }
+}
+
 TEST_F(SynthTool, UnwritableOutputExits73AndLeavesNothing) {
   // The parent folder does not exist.
   auto result = testing::RunTool("synth", "--out " + (dir_ / "missing" / "seq").string() + small_);
@@ -652,6 +684,9 @@ TEST_F(SynthTool, HelpListsEveryFlagWithItsDefault) {
   EXPECT_NE(result.output.find("loop"), std::string::npos);
   EXPECT_NE(result.output.find("shake"), std::string::npos);
   EXPECT_NE(result.output.find("--change TEXT=none"), std::string::npos);
+  EXPECT_NE(result.output.find("--scene TEXT:{standard,building}=standard"), std::string::npos)
+      << result.output;
+  EXPECT_NE(result.output.find("tour"), std::string::npos);
   EXPECT_NE(result.output.find("moved-box"), std::string::npos);
 }
 
