@@ -31,7 +31,10 @@
 // process: loop closing's global BA on a thread of its own while a camera is
 // localized in the map at 30 Hz (global_ba_while_tracking.h): the BA's time
 // and the tracking times before and during it (goal at 3k keyframes:
-// tracking p95 during the BA within 1.5x of before it).
+// tracking p95 during the BA within 1.5x of before it). With --synth and
+// --building-frames, the building's tour (rrslam-synth --scene building
+// --trajectory tour) mapped in one run: keyframes, loops, ATE, timings and
+// the saved map's size.
 // Writes PREFIX.txt and PREFIX.json, and the curves as PREFIX-time.png,
 // PREFIX-memory.png and (with --track) PREFIX-track.png.
 #include <CLI/CLI.hpp>
@@ -50,6 +53,7 @@
 #include "common/dataset.h"
 #include "common/image_io.h"
 #include "common/trajectory.h"
+#include "stages/eval/ate.h"
 #include "stages/mapstore/map_compose.h"
 #include "stages/mapstore/map_file.h"
 #include "stages/vocab/vocabulary.h"
@@ -77,6 +81,7 @@ struct Options {
   fs::path synth;  // rrslam-synth, for the revisits (none without it).
   // Global BA while tracking (with --track) on maps of at most this many keyframes.
   int global_ba_max_keyframes = 3100;
+  int building_frames = 6675;  // Of the building's tour (with --synth; 0: none).
 };
 
 // One size's figures, for the plots.
@@ -436,6 +441,57 @@ void MeasureRevisits(const Options& o, Report* report) {
                   per_lap[0] > 0 && added <= 10});
 }
 
+// The building (--synth, --building-frames > 0): rrslam-synth's building
+// and its tour (rendered once into --work), mapped in one batch run of
+// rrslam-track with --vocab and --save-map: the map that a long sequence of
+// new ground makes, with loops to close (issue 35, deliverable 1a).
+void MeasureBuilding(const Options& o, Report* report) {
+  const std::string frames = std::to_string(o.building_frames);
+  const std::string s = "building: rrslam-synth --scene building --trajectory tour, " + frames +
+                        " frames (one tour: 6675)";
+  const fs::path sequence = o.work / ("building-" + frames);
+  if (!fs::exists(sequence / "rgb.txt")) {
+    RunChild({o.synth.string(), "--quiet", "--out", sequence.string(), "--scene", "building",
+              "--trajectory", "tour", "--frames", frames},
+             o.work / "synth.txt");
+  }
+  const fs::path out = o.work / "building-run", map = o.work / "building.rrm";
+  const ChildRun run = RunChild(
+      {o.track.string(), "--quiet", "--sequence", sequence.string(), "--settings",
+       (sequence / "settings.yaml").string(), "--vocab", o.vocab.string(), "--out", out.string(),
+       "--save-map", map.string()},
+      o.work / "building.txt");
+  report->Add(s, {"run failed", run.exit_code == 0 ? 0.0 : 1.0, "", "0", run.exit_code == 0});
+  if (run.exit_code != 0) return;
+  std::ifstream in(out / "run.json");
+  const nlohmann::json r = nlohmann::json::parse(in);
+  const nlohmann::json& counts = r.at("counts");
+  for (const char* key : {"tracked", "lost", "keyframes", "keyframes_created", "keyframes_culled",
+                          "map_points", "loop_closures"}) {
+    report->Add(s, {key, counts.at(key).get<double>(), "", "-", true});
+  }
+  const double minutes = o.building_frames / 30.0 / 60.0;
+  report->Add(s, {"keyframes per minute of camera time", counts.at("keyframes").get<double>() / minutes,
+                  "", "-", true});
+  const rrslam::AteResult ate =
+      rrslam::ComputeAte(rrslam::ReadTumTrajectory(sequence / "groundtruth.txt"),
+                         rrslam::ReadTumTrajectory(out / "CameraTrajectory.txt"));
+  report->Add(s, {"ATE RMSE", ate.error.rmse * 100, "cm", "-", true});
+  const nlohmann::json& timings = r.at("timings");
+  report->Add(s, {"tracking median", timings.at("tracking").at("median_ms").get<double>(),
+                  "ms", "-", true});
+  report->Add(s, {"  p95", timings.at("tracking").at("p95_ms").get<double>(), "ms", "-", true});
+  report->Add(s, {"local mapping median per keyframe",
+                  timings.at("local_mapping").at("median_ms").get<double>(), "ms", "-", true});
+  report->Add(s, {"whole run (wall)", run.wall_s, "s", "-", true});
+  report->Add(s, {"peak memory", run.max_rss_mb, "MB", "-", true});
+  const double bytes = static_cast<double>(fs::file_size(map));
+  report->Add(s, {"map file", bytes / 1e6, "MB", "-", true});
+  report->Add(s, {"  bytes per keyframe", bytes / counts.at("keyframes").get<double>() / 1e3, "kB",
+                  "<= 125 kB", bytes / counts.at("keyframes").get<double>() <= 125e3});
+  if (!o.keep) fs::remove(map);
+}
+
 std::vector<int> ParseSizes(const std::string& text) {
   std::vector<int> sizes;
   std::stringstream in(text);
@@ -466,6 +522,8 @@ int main(int argc, char** argv) {
   app.add_option("--start-stride", o.start_stride, "Frames between cold starts");
   app.add_option("--frames", o.frames, "Frames tracked per cold start");
   app.add_option("--synth", o.synth, "rrslam-synth, for the revisits (needs --track)");
+  app.add_option("--building-frames", o.building_frames,
+                 "Frames of the building's tour mapped (with --synth; 0: none)");
   app.add_option("--global-ba-max-keyframes", o.global_ba_max_keyframes,
                  "Global BA while tracking on maps of at most this many keyframes (needs --track)");
   CLI11_PARSE(app, argc, argv);
@@ -484,7 +542,10 @@ int main(int argc, char** argv) {
   for (const int size : o.sizes) {
     rows.push_back(MeasureSize(o, base, vocab, size, base_row, &report));
   }
-  if (!o.synth.empty() && !o.track.empty()) MeasureRevisits(o, &report);
+  if (!o.synth.empty() && !o.track.empty()) {
+    MeasureRevisits(o, &report);
+    if (o.building_frames > 0) MeasureBuilding(o, &report);
+  }
   WritePlots(o.out, rows, !o.track.empty());
   rrslam::bench::WriteGoalResults(o.out,
                                   "Issue 35: map files at scale, composed from " + o.map.string() +

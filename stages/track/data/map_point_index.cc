@@ -81,10 +81,12 @@ void MapPointIndex::Snapshot(const Map& map) {
   built_created_ = map.num_created_map_points();
   built_count_ = map.num_map_points();
   built_from_map_ = true;
+  AllocateTables();
 }
 
 void MapPointIndex::Build(const std::vector<MapPoint*>& points) {
   TakePoints(points);
+  AllocateTables();
   BuildTables();
 }
 
@@ -100,18 +102,25 @@ void MapPointIndex::TakePoints(const std::vector<MapPoint*>& points) {
   }
 }
 
-void MapPointIndex::BuildTables() {
-  if (options_.threads > 1 && !pool_) pool_ = std::make_unique<WorkerPool>(options_.threads);
+void MapPointIndex::AllocateTables() {
   tables_.clear();
   // The same bits for every build: searches are reproducible.
   std::mt19937_64 rng(options_.seed);
   std::vector<int> all(8 * sizeof(OrbDescriptor));
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  size_t capacity = 2;
+  while (capacity < 2 * descriptors_.size()) capacity *= 2;
   tables_.resize(static_cast<size_t>(options_.tables));
   for (Table& table : tables_) {
     std::shuffle(all.begin(), all.end(), rng);
     table.bits.assign(all.begin(), all.begin() + options_.key_bits);
+    table.slots.assign(capacity, {});
+    table.rows.resize(descriptors_.size());
   }
+}
+
+void MapPointIndex::BuildTables() {
+  if (options_.threads > 1 && !pool_) pool_ = std::make_unique<WorkerPool>(options_.threads);
   // Tables are independent once their bits are drawn: on the pool's threads.
   const auto fill = [this](size_t t) { FillTable(&tables_[t]); };
   if (pool_) {
@@ -125,10 +134,6 @@ void MapPointIndex::FillTable(Table* table_out) const {
   Table& table = *table_out;
   // Rows sorted by key (then row), each key's rows one bucket.
   const std::vector<std::pair<uint32_t, uint32_t>> keyed = SortedByKey(table);
-  size_t capacity = 2;
-  while (capacity < 2 * keyed.size()) capacity *= 2;
-  table.slots.assign(capacity, {});
-  table.rows.resize(keyed.size());
   for (size_t i = 0; i < keyed.size(); ++i) {
     table.rows[i] = keyed[i].second;
     Table::Slot& slot = table.Insert(keyed[i].first);

@@ -71,9 +71,10 @@ class MapPointIndex {
   // Snapshot(map), then BuildTables().
   void Build(const Map& map);
   // The two parts of Build(map): the points and their descriptors taken from
-  // the map (under Map::mutex(); a few ms on a big map), then the hash
-  // tables from those descriptors alone (no map access: may run on another
-  // thread, with no search meanwhile). Searches are valid after both.
+  // the map, and the tables' memory allocated (under Map::mutex(); tens of
+  // ms on a big map, on the caller's heap), then the hash tables filled from
+  // those descriptors alone (no map access: may run on another thread, with
+  // no search meanwhile). Searches are valid after both.
   void Snapshot(const Map& map);
   void BuildTables();
   // Indexes `points` (tests; bad points are skipped).
@@ -107,7 +108,9 @@ class MapPointIndex {
                       DescriptorNeighbours* n) const;
   // Keys of up to this many bits may be sorted by counting (2^bits counters).
   static constexpr int kCountingSortMaxBits = 24;
-  // The slots and rows of `table` (its bits drawn) from descriptors_.
+  // Each table's key bits drawn, its slots (empty) and rows allocated.
+  void AllocateTables();
+  // The slots and rows of `table` (allocated, its bits drawn) from descriptors_.
   void FillTable(Table* table) const;
   // (key, row) of every row in `table`, sorted.
   std::vector<std::pair<uint32_t, uint32_t>> SortedByKey(const Table& table) const;

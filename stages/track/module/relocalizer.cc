@@ -310,9 +310,12 @@ double Relocalizer::WaitForBackgroundIndex() {
 }
 
 double Relocalizer::PrepareIndex() {
-  WaitForBackgroundIndex();
-  if (options_.method == RelocalizationMethod::kBow || index_.IsCurrent(map_)) return 0;
   const auto start = SteadyClock::now();
+  const bool waiting = background_index_.valid();
+  WaitForBackgroundIndex();
+  if (options_.method == RelocalizationMethod::kBow || index_.IsCurrent(map_)) {
+    return waiting ? MillisecondsSince(start) : 0;
+  }
   index_.Build(map_);
   return MillisecondsSince(start);
 }

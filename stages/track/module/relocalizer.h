@@ -158,8 +158,8 @@ struct RelocalizationAttempt {
   // After verification: of the accepted pose; when none was accepted, the
   // most that any verified pose reached.
   int inliers = 0;
-  double index_ms = 0;   // Rebuilding the map-point index, when this attempt did.
-  double ms = 0;         // The whole attempt (the tracker times it).
+  double index_ms = 0;  // Waiting for the map-point index, or rebuilding it, when this attempt did.
+  double ms = 0;        // The whole attempt (the tracker times it).
   double timestamp = 0;  // The frame's (the tracker sets it).
 };
 
@@ -184,7 +184,8 @@ class Relocalizer {
                        RelocalizationAttempt* attempt = nullptr);
   // Builds the direct stage's map-point index now, unless the method has no
   // direct stage or it is current (waiting first for a build started by
-  // PrepareIndexInBackground); returns the ms this call spent building.
+  // PrepareIndexInBackground); returns the ms this call spent waiting and
+  // building (0 when it did neither).
   double PrepareIndex();
   // A map just loaded: the index's points taken now (call under the map's
   // mutex), its tables built on a thread of their own while tracking starts;
