@@ -4,11 +4,13 @@
 // and JSON to bench/results/.
 #pragma once
 
+#include <fcntl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -59,11 +61,12 @@ inline double PeakResidentKb(pid_t pid) {
   return 0;
 }
 
-// Waits for child `pid`; its rusage in `usage`, and the largest VmHWM read
-// while it ran (every 2 ms; kB). wait4's ru_maxrss alone is no peak of the
-// child's own: Linux counts in it the resident memory the child had before
-// its exec, a copy of this process's, which holds gigabytes of map after a
-// big in-process load (then a child of a few MB reported 1.9 GB).
+// Waits for child `pid` (past its exec); its rusage in `usage`, and the
+// largest VmHWM read while it ran (every 2 ms; kB). wait4's ru_maxrss alone
+// is no peak of the child's own: Linux counts in it the resident memory the
+// child had before its exec, a copy of this process's, which holds
+// gigabytes of map after a big in-process load (then a child of a few MB
+// reported 1.9 GB).
 inline pid_t WaitWatchingPeak(pid_t pid, int* status, struct rusage* usage, double* peak_kb) {
   for (;;) {
     const pid_t done = wait4(pid, status, WNOHANG, usage);
@@ -82,8 +85,13 @@ inline ChildRun RunChild(const std::vector<std::string>& argv,
   std::cerr << "bench: " << line << "> " << capture.string() << std::endl;
   ChildRun run;
   const auto start = SteadyClock::now();
+  // Closed in the child by its exec (O_CLOEXEC): the end of the copy of
+  // this process that the fork made, whose VmHWM is not the child's.
+  int exec_pipe[2] = {-1, -1};
+  if (pipe2(exec_pipe, O_CLOEXEC) != 0) return run;
   const pid_t pid = fork();
   if (pid == 0) {
+    close(exec_pipe[0]);
     if (std::freopen(capture.c_str(), "w", stdout) == nullptr) _exit(126);
     std::vector<char*> args;
     for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
@@ -91,6 +99,11 @@ inline ChildRun RunChild(const std::vector<std::string>& argv,
     execv(args[0], args.data());
     _exit(127);
   }
+  close(exec_pipe[1]);
+  char byte = 0;
+  while (pid > 0 && read(exec_pipe[0], &byte, 1) < 0 && errno == EINTR) {
+  }
+  close(exec_pipe[0]);
   int status = 0;
   struct rusage usage {};
   double peak_kb = 0;
