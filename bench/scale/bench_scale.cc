@@ -456,11 +456,11 @@ void MeasureBuilding(const Options& o, Report* report) {
              o.work / "synth.txt");
   }
   const fs::path out = o.work / "building-run", map = o.work / "building.rrm";
-  const ChildRun run = RunChild(
-      {o.track.string(), "--quiet", "--sequence", sequence.string(), "--settings",
-       (sequence / "settings.yaml").string(), "--vocab", o.vocab.string(), "--out", out.string(),
-       "--save-map", map.string()},
-      o.work / "building.txt");
+  const ChildRun run =
+      RunChild({o.track.string(), "--quiet", "--sequence", sequence.string(), "--settings",
+                (sequence / "settings.yaml").string(), "--vocab", o.vocab.string(), "--out",
+                out.string(), "--save-map", map.string()},
+               o.work / "building.txt");
   report->Add(s, {"run failed", run.exit_code == 0 ? 0.0 : 1.0, "", "0", run.exit_code == 0});
   if (run.exit_code != 0) return;
   std::ifstream in(out / "run.json");
@@ -471,15 +471,15 @@ void MeasureBuilding(const Options& o, Report* report) {
     report->Add(s, {key, counts.at(key).get<double>(), "", "-", true});
   }
   const double minutes = o.building_frames / 30.0 / 60.0;
-  report->Add(s, {"keyframes per minute of camera time", counts.at("keyframes").get<double>() / minutes,
-                  "", "-", true});
+  report->Add(s, {"keyframes per minute of camera time",
+                  counts.at("keyframes").get<double>() / minutes, "", "-", true});
   const rrslam::AteResult ate =
       rrslam::ComputeAte(rrslam::ReadTumTrajectory(sequence / "groundtruth.txt"),
                          rrslam::ReadTumTrajectory(out / "CameraTrajectory.txt"));
   report->Add(s, {"ATE RMSE", ate.error.rmse * 100, "cm", "-", true});
   const nlohmann::json& timings = r.at("timings");
-  report->Add(s, {"tracking median", timings.at("tracking").at("median_ms").get<double>(),
-                  "ms", "-", true});
+  report->Add(s, {"tracking median", timings.at("tracking").at("median_ms").get<double>(), "ms",
+                  "-", true});
   report->Add(s, {"  p95", timings.at("tracking").at("p95_ms").get<double>(), "ms", "-", true});
   report->Add(s, {"local mapping median per keyframe",
                   timings.at("local_mapping").at("median_ms").get<double>(), "ms", "-", true});

@@ -64,14 +64,12 @@ GlobalBaWhileTracking MeasureGlobalBaWhileTracking(const GlobalBaWhileTrackingOp
   GlobalBaWhileTracking r;
   const Settings settings = ReadSettings(o.settings);
   const Vocabulary vocabulary = Vocabulary::Load(o.vocab);
-  const auto load_start = SteadyClock::now();
   MapData data = ReadMapFile(o.map);
   const int levels_up = data.bow_levels_up;
   const SensorModel sensor(settings, data.camera.width, data.camera.height);
   Map map;
   KeyFrameDatabase database(vocabulary);
   LoadMapData(std::move(data), sensor, vocabulary, levels_up, &map, &database, o.map.string());
-  r.load_s = MillisecondsSince(load_start) / 1e3;
 
   const RgbdSequence sequence = RgbdSequence::Open(o.sequence);
   std::vector<size_t> indices(static_cast<size_t>(o.frames));

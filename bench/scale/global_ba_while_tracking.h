@@ -37,7 +37,6 @@ struct GlobalBaWhileTracking {
   // whose tracking overlapped the BA (from Collect's start to Apply's end).
   std::vector<double> before_ms, during_ms;
   int lost_before = 0, lost_during = 0;
-  double load_s = 0;  // The map's load, in process.
 };
 
 // Throws what loading the map, the vocabulary, the settings or the frames throws.
