@@ -93,6 +93,11 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
                  "Keyframe when fewer close points are tracked (ORB-SLAM2: 100; the default "
                  "follows the rule for defaults, docs/track.md)")
       ->capture_default_str();
+  app.add_option("--new-view-fraction", o->tracker.new_view_fraction,
+                 "Keyframes only where more than this fraction of the close keypoints is new "
+                 "to the map, on 3 frames in a row, so revisits add none (0: ORB-SLAM2's rule "
+                 "alone; docs/track.md)")
+      ->capture_default_str();
   app.add_option("--restore-close-tracked", o->restore_close_tracked,
                  "The same when mapping on a --load-map map (restore mapping; ORB-SLAM2: 100)")
       ->capture_default_str();

@@ -341,6 +341,7 @@ nlohmann::json TrackOptions::ToJson() const {
           {"extraction_threads", extraction_threads},
           {"close_tracked", tracker.close_tracked},
           {"restore_close_tracked", restore_close_tracked},
+          {"new_view_fraction", tracker.new_view_fraction},
           {"ba_depth_fallback", local_mapping.bundle_adjustment.depth_fallback},
           {"small_vocab_groups", small_vocab_groups},
           {"expand_all_local_keyframes", tracker.expand_all_local_keyframes},

@@ -67,6 +67,7 @@ struct TrackOptions {
   // its one default, check and meaning in the module's header. The tool
   // binds these (CLI flag / run.json name):
   //   tracker.close_tracked                        --close-tracked / close_tracked
+  //   tracker.new_view_fraction                    --new-view-fraction
   //   tracker.expand_all_local_keyframes           --expand-all-local-keyframes
   //   local_mapping.bundle_adjustment.depth_fallback  --[no-]ba-depth-fallback /
   //                                                   ba_depth_fallback (also

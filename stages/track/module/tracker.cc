@@ -19,6 +19,11 @@ bool TrackerOptions::Check(std::string* why) const {
       *why = "close_tracked = " + std::to_string(close_tracked) + "; must be >= 0";
     return false;
   }
+  if (!(new_view_fraction >= 0 && new_view_fraction < 1)) {
+    if (why != nullptr)
+      *why = "new_view_fraction = " + std::to_string(new_view_fraction) + "; must be in [0, 1)";
+    return false;
+  }
   std::string reason;
   if (!relocalization.Check(&reason)) {
     if (why != nullptr) *why = "relocalization." + reason;
@@ -64,15 +69,15 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
     }
     current_.reference_keyframe = reference_keyframe_;
     if (ok && !vo_) ok = TrackLocalMap();
-    if (ok && options_.restore_mapping) {
-      uncovered_history_.push_back(CompareWithLocalMap());
-      if (uncovered_history_.size() > kLacksViewFrames) uncovered_history_.pop_front();
+    if (ok && !options_.localization_only && GatesKeyFramesByView()) {
+      lacking_history_.push_back(CompareWithLocalMap());
+      if (lacking_history_.size() > kLacksViewFrames) lacking_history_.pop_front();
       frames_lacking_view_ += LacksView();
     }
     if (ok && vo_) ++visual_odometry_frames_;
     if (ok && was_lost) ++relocalizations_;
     state_ = ok ? State::kOk : State::kLost;
-    if (!ok) uncovered_history_.clear();
+    if (!ok) lacking_history_.clear();
     if (ok) {
       if (last_frame_tracked_) {
         velocity_ = current_.T_cam_world() * last_frame_.T_world_cam();
@@ -175,7 +180,7 @@ void Tracker::MoveWorld(const Rigid3d& T_new_old) {
   if (last_good_T_cam_world_) last_good_T_cam_world_ = *last_good_T_cam_world_ * T_old_new;
 }
 
-int Tracker::CompareWithLocalMap() {
+bool Tracker::CompareWithLocalMap() {
   const FrameFeatures& f = current_.features();
   const bool with_depth_image = !current_.depth_metres.empty();
   const uint64_t stamp = current_.id() + 1;
@@ -215,21 +220,20 @@ int Tracker::CompareWithLocalMap() {
         break;
     }
   }
-  int uncovered = 0;
+  int uncovered = 0, close = 0;
   for (size_t i = 0; i < f.size(); ++i) {
     const float depth = f.Depth(i);
-    if (depth <= 0 || depth >= sensor_.th_depth || covered[i]) continue;
-    uncovered += current_.map_points[i] == nullptr || current_.outlier[i];
+    if (depth <= 0 || depth >= sensor_.th_depth) continue;
+    ++close;
+    if (!covered[i]) uncovered += current_.map_points[i] == nullptr || current_.outlier[i];
   }
-  return uncovered;
+  return uncovered > options_.close_untracked && uncovered > options_.new_view_fraction * close;
 }
 
 bool Tracker::LacksView() const {
-  if (uncovered_history_.size() < kLacksViewFrames) return false;
-  for (int uncovered : uncovered_history_) {
-    if (uncovered <= options_.close_untracked) return false;
-  }
-  return true;
+  if (lacking_history_.size() < kLacksViewFrames) return false;
+  return std::all_of(lacking_history_.begin(), lacking_history_.end(),
+                     [](bool lacking) { return lacking; });
 }
 
 bool Tracker::TrackLocalizationOnly() {
@@ -587,10 +591,11 @@ bool Tracker::NeedNewKeyFrame() const {
   const bool c1c = matches_inliers_ < reference_matches * 0.25 || need_close;
   const bool c2 =
       (matches_inliers_ < reference_matches * ratio || need_close) && matches_inliers_ > 15;
-  // Restore mapping: keyframes only where the map lacks the view (the
-  // close keypoints no map point accounts for, on kLacksViewFrames frames
-  // in a row), then also once per max_keyframe_gap frames.
-  const bool lacks_view = !options_.restore_mapping || LacksView();
+  // Restore mapping or new_view_fraction: keyframes only where the map
+  // lacks the view (the close keypoints no map point accounts for, on
+  // kLacksViewFrames frames in a row); restore mapping then also once per
+  // max_keyframe_gap frames.
+  const bool lacks_view = !GatesKeyFramesByView() || LacksView();
   const bool restore = options_.restore_mapping && c1a && lacks_view && matches_inliers_ > 15;
   if (!((c1a || c1b || c1c) && ((c2 && lacks_view) || restore))) return false;
   if (mapper_idle) return true;

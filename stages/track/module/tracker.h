@@ -104,6 +104,14 @@ struct TrackerOptions {
   // matches, so sessions in the same place do not grow the map. Redundant
   // keyframes are culled as usual.
   bool restore_mapping = false;
+  // Keyframes only where the map lacks the view in every mapping run, not
+  // only on a loaded map (revisits add no keyframes): the frame's close
+  // keypoints that no local point accounts for must be more than this
+  // fraction of its close keypoints (and more than close_untracked) on
+  // kLacksViewFrames tracked frames in a row; ORB-SLAM2's rule decides
+  // from there. The same gate tightens restore mapping's. 0: ORB-SLAM2's
+  // rule alone (restore mapping: close_untracked alone). In [0, 1).
+  double new_view_fraction = 0.0;
   int vo_min_map_matches = 10;
   // Points matched by the motion model in visual-odometry tracking (ORB-SLAM2: > 20).
   int vo_min_matches = 20;
@@ -182,7 +190,8 @@ class Tracker {
   bool visual_odometry() const { return vo_; }
   // Frames tracked as visual odometry (localization only).
   size_t visual_odometry_frames() const { return visual_odometry_frames_; }
-  // Tracked frames whose view the map lacked (restore mapping: LacksView);
+  // Tracked frames whose view the map lacked (LacksView, when the keyframe
+  // rule is gated by it);
   // only they may make a keyframe.
   size_t frames_lacking_view() const { return frames_lacking_view_; }
   size_t resets() const { return resets_; }
@@ -195,16 +204,23 @@ class Tracker {
   // Localization only (ORB-SLAM2's UpdateLastFrame for RGB-D): temporary
   // points for the last frame's close keypoints without a map point.
   void AddTemporaryPoints();
-  // Restore mapping, one pass over the local points the frame predicts
-  // visible: for each not matched, what the frame's depth image says about
-  // it (MapPoint::evidence); returns the close keypoints not tracked that no
-  // local point accounts for (none projects within the local-map search
-  // window at a depth within DepthCoverGap): where the map lacks the view.
-  int CompareWithLocalMap();
-  // True when each of the last kLacksViewFrames tracked frames had more than
-  // close_untracked uncovered close keypoints: a view the map lacks stays
-  // uncovered, a blurred frame or a bad depth image passes.
+  // One pass over the local points the frame predicts visible (restore
+  // mapping, or new_view_fraction > 0): with a depth image, what it says
+  // about each not matched (MapPoint::evidence); returns whether the frame
+  // lacks the view: more than close_untracked, and more than
+  // new_view_fraction of its close keypoints, are close keypoints not
+  // tracked that no local point accounts for (none projects within the
+  // local-map search window at a depth within DepthCoverGap).
+  bool CompareWithLocalMap();
+  // True when each of the last kLacksViewFrames tracked frames lacked the
+  // view: a view the map lacks stays uncovered, a blurred frame or a bad
+  // depth image passes.
   bool LacksView() const;
+  // The keyframe rule is gated by LacksView (restore mapping or
+  // new_view_fraction > 0).
+  bool GatesKeyFramesByView() const {
+    return options_.restore_mapping || options_.new_view_fraction > 0;
+  }
   static constexpr size_t kLacksViewFrames = 3;
   // The tracking step of localization mode; returns whether it gave a pose.
   bool TrackLocalizationOnly();
@@ -252,9 +268,9 @@ class Tracker {
   SolveCounts pose_solves_;
   size_t resets_ = 0;
   int matches_inliers_ = 0;
-  // CompareWithLocalMap() of the last tracked frames, oldest first (restore
-  // mapping; emptied when tracking is lost).
-  std::deque<int> uncovered_history_;
+  // CompareWithLocalMap() of the last tracked frames, oldest first (when
+  // GatesKeyFramesByView; emptied when tracking is lost).
+  std::deque<bool> lacking_history_;
 
   std::vector<KeyFrame*> local_keyframes_;
   std::vector<MapPoint*> local_points_;

@@ -38,6 +38,18 @@ TEST(TrackerOptionsTest, DefaultsPassAndEachConstraintFails) {
   EXPECT_EQ(why, "close_tracked = -1; must be >= 0");
 }
 
+TEST(TrackerOptionsTest, NewViewFractionMustBeBelowOne) {
+  std::string why;
+  TrackerOptions o;
+  o.new_view_fraction = 1;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_EQ(why, "new_view_fraction = 1.000000; must be in [0, 1)");
+  o.new_view_fraction = -0.1;
+  EXPECT_FALSE(o.Check(&why));
+  o.new_view_fraction = 0.15;
+  EXPECT_TRUE(o.Check(&why)) << why;
+}
+
 // The tracker on its own (issue 33: its logic was tested only through the
 // whole tool): a wall of 4000 random points 2-5 m away and 16 m wide, of
 // which a frame sees about a quarter, frames rendered
@@ -199,6 +211,43 @@ TEST_F(TrackerSceneTest, RestoreMappingMakesKeyFramesOnlyWhereTheMapLacksTheView
   EXPECT_EQ(made_inside, 0);
   EXPECT_GE(made_beyond, 2);
   EXPECT_TRUE(testing::MapIsConsistent(map_));
+}
+
+// A revisit in one mapping run: out along the path and back over most of
+// it. With new_view_fraction 0.15 the way out gets keyframes where the view
+// is new (as many as with ORB-SLAM2's rule, give or take one), the way back
+// none (the map has its view); a fraction few views reach blocks more.
+TEST_F(TrackerSceneTest, NewViewFractionMakesKeyFramesOnlyWhereTheViewIsNew) {
+  auto run = [&](double fraction, int* made_out, int* made_back) {
+    map_.Clear();
+    database_.Clear();
+    next_id_ = 0;
+    TrackerOptions o;
+    o.new_view_fraction = fraction;
+    MakeTracker(o);
+    *made_out = *made_back = 0;
+    for (int t = 0; t < 60; ++t) {
+      bool new_keyframe = false;
+      ASSERT_TRUE(TrackAt(PathPose(t), &new_keyframe)) << fraction << " " << t;
+      *made_out += new_keyframe;
+    }
+    for (int t = 58; t >= 10; --t) {
+      bool new_keyframe = false;
+      ASSERT_TRUE(TrackAt(PathPose(t), &new_keyframe)) << fraction << " " << t;
+      *made_back += new_keyframe;
+      EXPECT_LT(LastError(PathPose(t)), 0.03) << fraction << " " << t;
+    }
+    EXPECT_TRUE(testing::MapIsConsistent(map_));
+  };
+  int orb_out = 0, orb_back = 0, out = 0, back = 0, blocked_out = 0, blocked_back = 0;
+  run(0.0, &orb_out, &orb_back);
+  run(0.15, &out, &back);
+  run(0.95, &blocked_out, &blocked_back);
+  EXPECT_GE(out, 4);
+  EXPECT_GE(out, orb_out - 1);
+  EXPECT_EQ(back, 0);
+  EXPECT_LT(blocked_out, out);
+  EXPECT_EQ(blocked_back, 0);
 }
 
 // The local-map search on its own: a cold start relocalizes against one
