@@ -891,6 +891,7 @@ class TrackSession {
       attempts.push_back({{"timestamp", a.timestamp},
                           {"stage", a.stage},
                           {"bow_candidates", a.bow_candidates},
+                          {"bow_query_ms", a.bow_query_ms},
                           {"direct_queries", a.direct_queries},
                           {"direct_matches", a.direct_matches},
                           {"inliers", a.inliers},

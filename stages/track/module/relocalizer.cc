@@ -416,7 +416,9 @@ int Relocalizer::BowMatches(const Matcher& matcher, const KeyFrame& kf, const Fr
 
 KeyFrame* Relocalizer::RelocalizeByBow(Frame* frame, SolveCounts* solves,
                                        RelocalizationAttempt* attempt) {
+  const auto query_start = SteadyClock::now();
   const std::vector<KeyFrame*> candidates = database_.DetectRelocalizationCandidates(frame->bow());
+  attempt->bow_query_ms = MillisecondsSince(query_start);
   attempt->bow_candidates = static_cast<int>(candidates.size());
   const FrameFeatures& f = frame->features();
   const Eigen::Matrix3d K = sensor_.camera.K();

@@ -158,6 +158,7 @@ struct RelocalizationAttempt {
   // After verification: of the accepted pose; when none was accepted, the
   // most that any verified pose reached.
   int inliers = 0;
+  double bow_query_ms = 0;  // The keyframe database's query for the BoW candidates.
   double index_ms = 0;  // Waiting for the map-point index, or rebuilding it, when this attempt did.
   double ms = 0;        // The whole attempt (the tracker times it).
   double timestamp = 0;  // The frame's (the tracker sets it).
