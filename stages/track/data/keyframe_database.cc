@@ -73,11 +73,34 @@ void KeyFrameDatabase::AddAll(const std::vector<KeyFrame*>& keyframes) {
   } else {
     MergeInto(&base_, added);
   }
+  IndexBase();
+}
+
+void KeyFrameDatabase::IndexBase() {
+  base_start_.clear();
+  if (base_.empty()) return;
+  const size_t words = std::max<size_t>(vocabulary_.num_words(), size_t{WordOf(base_.back())} + 1);
+  base_start_.assign(words + 1, 0);
+  for (const uint64_t posting : base_) ++base_start_[size_t{WordOf(posting)} + 1];
+  for (size_t w = 0; w < words; ++w) base_start_[w + 1] += base_start_[w];
+}
+
+std::pair<const uint64_t*, const uint64_t*> KeyFrameDatabase::BaseRange(WordId word) const {
+  if (size_t{word} + 1 >= base_start_.size()) return {nullptr, nullptr};
+  return {base_.data() + base_start_[word], base_.data() + base_start_[size_t{word} + 1]};
+}
+
+std::pair<const uint64_t*, const uint64_t*> KeyFrameDatabase::RecentRange(WordId word) const {
+  const auto [first, last] = std::equal_range(
+      recent_.begin(), recent_.end(), Posting(word, 0),
+      [](uint64_t a, uint64_t b) { return WordOf(a) < WordOf(b); });
+  return {recent_.data() + (first - recent_.begin()), recent_.data() + (last - recent_.begin())};
 }
 
 void KeyFrameDatabase::MergeRecent() {
   MergeInto(&base_, recent_);
   recent_.clear();
+  IndexBase();
 }
 
 void KeyFrameDatabase::Erase(const KeyFrame* keyframe) {
@@ -95,10 +118,12 @@ void KeyFrameDatabase::CompactIfMostlyErased() {
   std::erase_if(base_, erased);
   std::erase_if(recent_, erased);
   erased_postings_ = 0;
+  IndexBase();
 }
 
 void KeyFrameDatabase::Clear() {
   base_.clear();
+  base_start_.clear();
   recent_.clear();
   slots_.clear();
   slot_postings_.clear();
@@ -108,9 +133,8 @@ void KeyFrameDatabase::Clear() {
 
 std::vector<KeyFrame*> KeyFrameDatabase::KeyFramesWithWord(WordId word) const {
   std::vector<KeyFrame*> out;
-  for (const std::vector<uint64_t>* postings : {&base_, &recent_}) {
-    auto it = std::lower_bound(postings->begin(), postings->end(), Posting(word, 0));
-    for (; it != postings->end() && WordOf(*it) == word; ++it) {
+  for (const auto& [first, last] : {BaseRange(word), RecentRange(word)}) {
+    for (const uint64_t* it = first; it != last; ++it) {
       if (KeyFrame* kf = slots_[SlotOf(*it)]) out.push_back(kf);
     }
   }
@@ -133,13 +157,10 @@ std::vector<KeyFrameDatabase::Candidate> KeyFrameDatabase::SharingWords(
   // Shared words per slot, counted over the query's postings.
   std::vector<int> shared(slots_.size(), 0);
   std::vector<uint32_t> touched;
-  for (const std::vector<uint64_t>* postings : {&base_, &recent_}) {
-    // The query's words are sorted, so each search starts where the last ended.
-    auto from = postings->begin();
-    for (const auto& [word, value] : bow.entries) {
-      from = std::lower_bound(from, postings->end(), Posting(word, 0));
-      for (; from != postings->end() && WordOf(*from) == word; ++from) {
-        const uint32_t slot = SlotOf(*from);
+  for (const auto& [word, value] : bow.entries) {
+    for (const auto& [first, last] : {BaseRange(word), RecentRange(word)}) {
+      for (const uint64_t* it = first; it != last; ++it) {
+        const uint32_t slot = SlotOf(*it);
         if (shared[slot]++ == 0) touched.push_back(slot);
       }
     }

@@ -76,6 +76,12 @@ class KeyFrameDatabase {
   std::vector<KeyFrame*> DetectCandidates(const BowVector& bow, const KeyFrame* query,
                                           double min_score) const;
   uint32_t NewSlot(KeyFrame* keyframe);
+  // The postings of `word`: its equal range in base_ (by base_start_) and in
+  // recent_ (by binary search).
+  std::pair<const uint64_t*, const uint64_t*> BaseRange(WordId word) const;
+  std::pair<const uint64_t*, const uint64_t*> RecentRange(WordId word) const;
+  // Recomputes base_start_ after base_ changed (in time base_ + words).
+  void IndexBase();
   void MergeRecent();
   void CompactIfMostlyErased();
 
@@ -92,6 +98,11 @@ class KeyFrameDatabase {
   // place) when it outgrows that. Postings of erased keyframes stay until the
   // arrays are compacted, when they are a quarter of all.
   std::vector<uint64_t> base_, recent_;
+  // Word -> index of its first posting in base_ (one past the last word's
+  // end at the back): a word's list without a search through base_, whose
+  // binary searches cost ~10 ms of cache misses a query at 10k keyframes
+  // (7M postings). 4 bytes a vocabulary word, one allocation.
+  std::vector<uint32_t> base_start_;
   std::vector<KeyFrame*> slots_;                           // Slot -> keyframe; null once erased.
   std::vector<uint32_t> slot_postings_;                    // Slot -> its number of postings.
   std::unordered_map<const KeyFrame*, uint32_t> slot_of_;  // Indexed keyframes.
