@@ -91,9 +91,9 @@ std::pair<const uint64_t*, const uint64_t*> KeyFrameDatabase::BaseRange(WordId w
 }
 
 std::pair<const uint64_t*, const uint64_t*> KeyFrameDatabase::RecentRange(WordId word) const {
-  const auto [first, last] = std::equal_range(
-      recent_.begin(), recent_.end(), Posting(word, 0),
-      [](uint64_t a, uint64_t b) { return WordOf(a) < WordOf(b); });
+  const auto [first, last] =
+      std::equal_range(recent_.begin(), recent_.end(), Posting(word, 0),
+                       [](uint64_t a, uint64_t b) { return WordOf(a) < WordOf(b); });
   return {recent_.data() + (first - recent_.begin()), recent_.data() + (last - recent_.begin())};
 }
 
