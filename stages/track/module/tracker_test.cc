@@ -79,6 +79,14 @@ class TrackerSceneTest : public ::testing::Test {
     tracker_ = std::make_unique<Tracker>(sensor_, vocabulary_, &map_, mapper_.get(), database_, o);
   }
 
+  // An empty map and a new tracker, from frame 0.
+  void StartOver(const TrackerOptions& options) {
+    map_.Clear();
+    database_.Clear();
+    next_id_ = 0;
+    MakeTracker(options);
+  }
+
   // Tracks the frame seen from `T_true`; returns whether it got a pose.
   bool TrackAt(const Rigid3d& T_true, bool* new_keyframe = nullptr) {
     testing::ViewOptions view_options;
@@ -130,12 +138,9 @@ TEST_F(TrackerSceneTest, MotionModelTracksASmoothPath) {
 // close_tracked makes keyframes denser.
 TEST_F(TrackerSceneTest, KeyFramesFollowTheCloseTrackedThreshold) {
   auto count_keyframes = [&](int close_tracked, bool still) {
-    map_.Clear();
-    database_.Clear();
-    next_id_ = 0;
     TrackerOptions o;
     o.close_tracked = close_tracked;
-    MakeTracker(o);
+    StartOver(o);
     int made = 0;
     for (int t = 0; t < 40; ++t) {
       bool new_keyframe = false;
@@ -219,12 +224,9 @@ TEST_F(TrackerSceneTest, RestoreMappingMakesKeyFramesOnlyWhereTheMapLacksTheView
 // none (the map has its view); a fraction few views reach blocks more.
 TEST_F(TrackerSceneTest, NewViewFractionMakesKeyFramesOnlyWhereTheViewIsNew) {
   auto run = [&](double fraction, int* made_out, int* made_back) {
-    map_.Clear();
-    database_.Clear();
-    next_id_ = 0;
     TrackerOptions o;
     o.new_view_fraction = fraction;
-    MakeTracker(o);
+    StartOver(o);
     *made_out = *made_back = 0;
     for (int t = 0; t < 60; ++t) {
       bool new_keyframe = false;
