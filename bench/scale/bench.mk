@@ -40,7 +40,7 @@ BENCH_SCALE_BUILDING_FRAMES ?= 6675
 
 .PHONY: bench-scale
 bench-scale: configure
-	cmake --build $(BUILD_DIR) -j $(JOBS) --target rrslam-mapstore rrslam-track rrslam-synth rrslam-eval bench_scale
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target rrslam-mapstore rrslam-track rrslam-synth bench_scale
 	@if [ ! -f "$(BENCH_DENSE_SEQUENCE)/rgb.txt" ] && [ ! -f "$(BENCH_SCALE_MAP)" ]; then \
 	  echo "bench-scale: no base map and no $(BENCH_DENSE_SEQUENCE) to make one, skipped"; exit 0; fi; \
 	$(MAKE) --no-print-directory $(BENCH_SCALE_MAP) && mkdir -p bench/results $(BENCH_SCALE_DIR) && \
@@ -50,7 +50,7 @@ bench-scale: configure
 	  --mapstore $(BIN)/rrslam-mapstore --work $(BENCH_SCALE_DIR) --sizes $(BENCH_SCALE_SIZES) \
 	  --track $(BIN)/rrslam-track --sequence $(BENCH_DENSE_SEQUENCE) --settings $(BENCH_DENSE_SETTINGS) \
 	  --starts $(BENCH_SCALE_STARTS) --synth $(BIN)/rrslam-synth \
-	  --replay $$replay --eval $(BIN)/rrslam-eval \
+	  --replay $$replay \
 	  --building-frames $(BENCH_SCALE_BUILDING_FRAMES) \
 	  --machine "$$(bench/machine.sh)" \
 	  --out bench/results/scale-$$(date -u +%Y-%m-%d)$(if $(BENCH_SCALE_TAG),-$(BENCH_SCALE_TAG))

@@ -84,7 +84,6 @@ struct Options {
   int starts = 3, first_frame = 500, start_stride = 100, frames = 100;
   fs::path synth;   // rrslam-synth, for the revisits (none without it).
   fs::path replay;  // A sequence of --settings whose frames come twice (revisits).
-  fs::path eval;    // rrslam-eval, for the revisits' ATE.
   // Global BA while tracking (with --track) on maps of at most this many keyframes.
   int global_ba_max_keyframes = 3100;
   int building_frames = 6675;  // Of the building's tour (with --synth; 0: none).
@@ -424,6 +423,21 @@ Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Voc
   return row;
 }
 
+// The counts of `run_json` named by `keys`, each a figure of section `s`.
+void AddRunCounts(const nlohmann::json& run_json, std::initializer_list<const char*> keys,
+                  const std::string& s, Report* report) {
+  const nlohmann::json& counts = run_json.at("counts");
+  for (const char* key : keys) report->Add(s, {key, counts.at(key).get<double>(), "", "-", true});
+}
+
+// ATE RMSE of `out`'s CameraTrajectory.txt against `sequence`'s ground
+// truth (rrslam-eval ate's defaults), cm.
+double AteRmseCm(const fs::path& sequence, const fs::path& out) {
+  return 100 * rrslam::ComputeAte(rrslam::ReadTumTrajectory(sequence / "groundtruth.txt"),
+                                  rrslam::ReadTumTrajectory(out / "CameraTrajectory.txt"))
+                   .error.rmse;
+}
+
 // One revisit case: `sequence` (its settings.yaml, or `settings`) passes
 // over the same ground `passes` times, equal in time, mapped in one batch
 // run of rrslam-track with --vocab and `args`; the keyframes left at the end
@@ -447,11 +461,9 @@ void MeasureRevisit(const Options& o, const std::string& s, const fs::path& sequ
     ++per_pass[std::min(passes - 1, static_cast<int>((kf.timestamp - start) / pass))];
   }
   std::ifstream in(out / "run.json");
-  const nlohmann::json counts = nlohmann::json::parse(in).at("counts");
-  for (const char* key :
-       {"tracked", "lost", "keyframes_created", "keyframes_culled", "loop_closures"}) {
-    report->Add(s, {key, counts.at(key).get<double>(), "", "-", true});
-  }
+  AddRunCounts(nlohmann::json::parse(in),
+               {"tracked", "lost", "keyframes_created", "keyframes_culled", "loop_closures"}, s,
+               report);
   for (int i = 0; i < passes; ++i) {
     report->Add(s, {"keyframes left from pass " + std::to_string(i + 1),
                     static_cast<double>(per_pass[i]), "", "-", true});
@@ -460,16 +472,7 @@ void MeasureRevisit(const Options& o, const std::string& s, const fs::path& sequ
   const double added = 100.0 * later / std::max(1, per_pass[0]);
   report->Add(s, {"later passes add, of the first's keyframes", added, "%", "<= 10 %",
                   per_pass[0] > 0 && added <= 10});
-  if (o.eval.empty()) return;
-  const ChildRun ate = RunChild(
-      {o.eval.string(), "ate", "--json", "--gt", (sequence / "groundtruth.txt").string(), "--est",
-       (out / "CameraTrajectory.txt").string(), "--out", (o.work / "revisit-ate.json").string()},
-      o.work / "revisit-ate.txt");
-  if (ate.exit_code == 0) {
-    std::ifstream ate_in(o.work / "revisit-ate.json");
-    const nlohmann::json j = nlohmann::json::parse(ate_in);
-    report->Add(s, {"ATE RMSE", 100 * j.at("ate_m").at("rmse").get<double>(), "cm", "-", true});
-  }
+  report->Add(s, {"ATE RMSE", AteRmseCm(sequence, out), "cm", "-", true});
 }
 
 // Revisits (--synth): three laps of rrslam-synth's standard room loop; with
@@ -522,17 +525,14 @@ void MeasureBuilding(const Options& o, Report* report) {
   std::ifstream in(out / "run.json");
   const nlohmann::json r = nlohmann::json::parse(in);
   const nlohmann::json& counts = r.at("counts");
-  for (const char* key : {"tracked", "lost", "keyframes", "keyframes_created", "keyframes_culled",
-                          "map_points", "loop_closures"}) {
-    report->Add(s, {key, counts.at(key).get<double>(), "", "-", true});
-  }
+  AddRunCounts(r,
+               {"tracked", "lost", "keyframes", "keyframes_created", "keyframes_culled",
+                "map_points", "loop_closures"},
+               s, report);
   const double minutes = o.building_frames / 30.0 / 60.0;
   report->Add(s, {"keyframes per minute of camera time",
                   counts.at("keyframes").get<double>() / minutes, "", "-", true});
-  const rrslam::AteResult ate =
-      rrslam::ComputeAte(rrslam::ReadTumTrajectory(sequence / "groundtruth.txt"),
-                         rrslam::ReadTumTrajectory(out / "CameraTrajectory.txt"));
-  report->Add(s, {"ATE RMSE", ate.error.rmse * 100, "cm", "-", true});
+  report->Add(s, {"ATE RMSE", AteRmseCm(sequence, out), "cm", "-", true});
   const nlohmann::json& timings = r.at("timings");
   report->Add(s, {"tracking median", timings.at("tracking").at("median_ms").get<double>(), "ms",
                   "-", true});
@@ -580,7 +580,6 @@ int main(int argc, char** argv) {
   app.add_option("--synth", o.synth, "rrslam-synth, for the revisits (needs --track)");
   app.add_option("--replay", o.replay,
                  "A sequence of --settings whose frames come twice, for the revisits");
-  app.add_option("--eval", o.eval, "rrslam-eval, for the revisits' ATE");
   app.add_option("--building-frames", o.building_frames,
                  "Frames of the building's tour mapped (with --synth; 0: none)");
   app.add_option("--global-ba-max-keyframes", o.global_ba_max_keyframes,
