@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "common/orb_descriptor.h"
+#include "stages/mapstore/record_array.h"
 
 namespace rrslam {
 
@@ -117,9 +118,11 @@ struct KeyFrameRecord {
   uint64_t frame_id = 0;  // Index of its frame in the run that made it.
   double timestamp = 0;   // Seconds (the sequence's clock).
   MapPose T_cam_world;
-  std::vector<MapKeypoint> keypoints;
-  std::vector<OrbDescriptor> descriptors;  // Parallel to keypoints.
-  std::vector<uint64_t> map_point_ids;     // Parallel to keypoints; kNoId = none.
+  // Parallel arrays, one entry per keypoint; views of the file's bytes in a
+  // map read from a file (record_array.h).
+  RecordArray<MapKeypoint> keypoints;
+  RecordArray<OrbDescriptor> descriptors;
+  RecordArray<uint64_t> map_point_ids;  // kNoId = none.
   // Bag of words: (word, value) sorted by word, and the feature vector
   // (node, sorted keypoint indices) grouped `MapData::bow_levels_up` levels
   // above the words, sorted by node.

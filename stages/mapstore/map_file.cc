@@ -13,6 +13,7 @@
 #include <functional>
 #include <future>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <system_error>
 #include <type_traits>
@@ -782,6 +783,24 @@ void CopyEntries(const uint8_t** p, uint32_t count, size_t size, std::vector<T>*
   *p += size * count;
 }
 
+// The `count` entries of sizeof(T) bytes at `*p` (T's layout) as a view of
+// the mapped file that `mapping` keeps alive, or copied when there is none;
+// moves `*p` past them. Sections start aligned for their records
+// (SectionAlignment) and records are multiples of their alignment, so the
+// entries are aligned for T; a copy is the fallback if not.
+template <typename T>
+RecordArray<T> EntriesAt(const uint8_t** p, uint32_t count,
+                         const std::shared_ptr<const void>& mapping) {
+  const uint8_t* at = *p;
+  *p += sizeof(T) * count;
+  if (mapping != nullptr && reinterpret_cast<uintptr_t>(at) % alignof(T) == 0) {
+    return RecordArray<T>::View(reinterpret_cast<const T*>(at), count, mapping);
+  }
+  std::vector<T> copy(count);
+  if (count > 0) std::memcpy(copy.data(), at, sizeof(T) * count);
+  return copy;
+}
+
 // Reads `count` records of `size` bytes at `*p`, each a First at byte 0 and
 // a Second at byte 8 (bag-of-words entries, connections), and moves `*p`
 // past them.
@@ -797,9 +816,11 @@ void ParsePairs(const uint8_t** p, uint32_t count, size_t size,
 }
 
 // Fills one section's entries of every keyframe, in keyframe order (the
-// counts were checked against the section's size before).
+// counts were checked against the section's size before); keypoints,
+// descriptors and map point ids view `mapping` when it is not null.
 void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const MapCounts& c,
-                          const uint8_t* table, std::vector<KeyFrameRecord>* keyframes) {
+                          const uint8_t* table, const std::shared_ptr<const void>& mapping,
+                          std::vector<KeyFrameRecord>* keyframes) {
   const uint8_t* p = bytes.data();
   const uint8_t* indices = p + kFvGroupSize * c.feature_vector_groups;
   const uint8_t* loops = p + kConnectionSize * c.connections;
@@ -808,13 +829,13 @@ void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const Map
     const KeyframeCounts n = CountsOf(table + kKeyframeRecordSize * i);
     switch (section) {
       case kKeypoints:
-        CopyEntries(&p, n.keypoints, kKeypointRecordSize, &kf.keypoints);
+        kf.keypoints = EntriesAt<MapKeypoint>(&p, n.keypoints, mapping);
         break;
       case kDescriptors:
-        CopyEntries(&p, n.keypoints, kDescriptorSize, &kf.descriptors);
+        kf.descriptors = EntriesAt<OrbDescriptor>(&p, n.keypoints, mapping);
         break;
       case kKfPoints:
-        CopyEntries(&p, n.keypoints, 8, &kf.map_point_ids);
+        kf.map_point_ids = EntriesAt<uint64_t>(&p, n.keypoints, mapping);
         break;
       case kBow:
         ParsePairs(&p, n.bow, kBowEntrySize, &kf.bow);
@@ -900,16 +921,22 @@ void CheckCounts(const Sections& s, const MapCounts& c, const std::string& sourc
   CheckTotal(sum_observations, c.observations, "observations", "map_points", source);
 }
 
-// The records, one section at a time; a mapped file's section is dropped
-// from memory once parsed (`mapping`, when non-null, holds the sections), so
-// the records and one section are resident at once. Every read stays within
-// its section by CheckCounts.
-void ParseRecords(const Sections& s, const MapCounts& c, const MappedFile* mapping, MapData* map) {
+// Sections whose records a map read from a mapped file views in place.
+constexpr bool Viewed(int section) {
+  return section == kKeypoints || section == kDescriptors || section == kKfPoints;
+}
+
+// The records, one section at a time; a mapped file's copied section is
+// dropped from memory once parsed (`mapping`, when non-null, holds the
+// sections), so the records, the viewed sections and one more are resident at
+// once. Every read stays within its section by CheckCounts.
+void ParseRecords(const Sections& s, const MapCounts& c,
+                  const std::shared_ptr<const MappedFile>& mapping, MapData* map) {
   const auto prefault = [&](int i) {
     if (mapping != nullptr) mapping->Prefault(s[i]);
   };
   const auto release = [&](int i) {
-    if (mapping != nullptr) mapping->Release(s[i]);
+    if (mapping != nullptr && !Viewed(i)) mapping->Release(s[i]);
   };
   const uint8_t* table = s[kKeyframes].data();
   prefault(kKeyframes);
@@ -919,7 +946,7 @@ void ParseRecords(const Sections& s, const MapCounts& c, const MappedFile* mappi
   }
   for (const int i : {kKeypoints, kDescriptors, kKfPoints, kBow, kFeatureVectors, kGraph}) {
     prefault(i);
-    ParseKeyframeEntries(i, s[i], c, table, &map->keyframes);
+    ParseKeyframeEntries(i, s[i], c, table, mapping, &map->keyframes);
     release(i);
   }
   release(kKeyframes);
@@ -935,8 +962,19 @@ void ParseRecords(const Sections& s, const MapCounts& c, const MappedFile* mappi
   release(kObservations);
 }
 
+// Drops the pages of every section that no record views (the checksum read
+// them all).
+void ReleaseCopiedSections(const std::vector<Sections>& parts, const MappedFile& mapping) {
+  for (const Sections& s : parts) {
+    for (int i = 0; i < kNumSections; ++i) {
+      if (!Viewed(i)) mapping.Release(s[i]);
+    }
+  }
+}
+
 // One map's checked sections parsed (`where` names it in errors).
-MapData ParsePart(const Sections& s, const std::string& where, const MappedFile* mapping) {
+MapData ParsePart(const Sections& s, const std::string& where,
+                  const std::shared_ptr<const MappedFile>& mapping) {
   MapCounts c;
   MapData map = ParseMeta(s[kMeta], where, &c);
   CheckCounts(s, c, where);
@@ -944,9 +982,10 @@ MapData ParsePart(const Sections& s, const std::string& where, const MappedFile*
   return map;
 }
 
-// `mapping`, when non-null, is the mapped file that `file` is.
+// `mapping`, when non-null, is the mapped file that `file` is (the map's
+// keyframes view it).
 MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info,
-                 const MappedFile* mapping) {
+                 const std::shared_ptr<const MappedFile>& mapping) {
   const ParsedHeader h = ParseHeader(file, source);
   // The known sections of the map and of its other maps (format 1.1, while
   // "<k>:meta" is listed), and the payload's checksum over all of them.
@@ -955,10 +994,11 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
     parts.push_back(FoundSections(h, source, k));
   }
   // The checksum runs on a thread of its own while the records are parsed
-  // (parsing is safe on any bytes: every count is checked against its
-  // section's size before anything is allocated or read, and the fuzzer
-  // feeds it files with repaired checksums); a corrupt payload is reported
-  // before any other error, as if it had been checked first.
+  // and validated (parsing is safe on any bytes: every count is checked
+  // against its section's size before anything is allocated or read, and
+  // validation on any records; the fuzzer feeds both files with repaired
+  // checksums); a corrupt payload is reported before any other error, as if
+  // it had been checked first.
   std::future<bool> intact = std::async(std::launch::async, [&h] { return PayloadIntact(h); });
   MapData map;
   try {
@@ -967,13 +1007,13 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
       map.other_maps.push_back(
           ParsePart(parts[k], source + " (other map " + std::to_string(k) + ")", mapping));
     }
+    ValidateMapData(map, source);
   } catch (const DataError&) {
     if (!intact.get()) ThrowCorruptPayload(h, parts.size(), source);
     throw;
   }
   if (!intact.get()) ThrowCorruptPayload(h, parts.size(), source);
-  if (mapping != nullptr) mapping->Release(h.payload);  // Read by the checksum and the parser.
-  ValidateMapData(map, source);
+  if (mapping != nullptr) ReleaseCopiedSections(parts, *mapping);  // Read by the checksum too.
   if (info != nullptr) *info = h.info;
   return map;
 }
@@ -1023,7 +1063,7 @@ MapData ParseMapMeta(std::span<const uint8_t> file, const std::string& source, M
 }
 
 MapData ParseMap(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info) {
-  return ParseAll(file, source, info, nullptr);
+  return ParseAll(file, source, info, {});
 }
 
 MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
@@ -1035,8 +1075,8 @@ MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
     const MappedFile probe(path);
     ReadMapFileInfo(probe.bytes(), path.string());
   }
-  const MappedFile file(path, /*populate=*/true);
-  return ParseAll(file.bytes(), path.string(), info, &file);
+  const auto file = std::make_shared<const MappedFile>(path, /*populate=*/true);
+  return ParseAll(file->bytes(), path.string(), info, file);
 }
 
 HeapReservation ReserveHeapForMap(const std::filesystem::path& path, double heap_factor,

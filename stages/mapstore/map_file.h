@@ -61,7 +61,10 @@ MapData ParseMap(std::span<const uint8_t> file, const std::string& source,
                  MapFileInfo* info = nullptr);
 
 // Reads and parses `path`. Throws NoInputError when it is missing or is a
-// folder, DataError as ParseMap.
+// folder, DataError as ParseMap. The keyframes' keypoints, descriptors and
+// map point ids view the file's read-only mapping (RecordArray,
+// record_array.h), open until the last of them goes: rrslam replaces map
+// files by rename (AtomicOutput), never in place, so the mapped bytes stay.
 MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info = nullptr);
 
 // The calling thread's heap prepared for loading `path` (HeapReservation,

@@ -233,6 +233,30 @@ TEST(MapFile, WriteReadFile) {
   ExpectError<CantCreateError>([&] { WriteMapFile(dir / "no" / "map.rrm", map); }, "no");
 }
 
+// A map read from a file views the file's keypoints, descriptors and map
+// point ids (record_array.h); a new map saved over the path (a rename) leaves
+// them as read, and an edit copies only the edited array.
+TEST(MapFile, ReadKeyframesViewTheFileAndOutliveItsReplacement) {
+  TempDir dir;
+  const MapData map = MakeTestMap(4);
+  WriteMapFile(dir / "map.rrm", map);
+  MapData read = ReadMapFile(dir / "map.rrm");
+  ASSERT_FALSE(read.keyframes.empty());
+  for (const KeyFrameRecord& kf : read.keyframes) {
+    EXPECT_TRUE(kf.keypoints.is_view());
+    EXPECT_TRUE(kf.descriptors.is_view());
+    EXPECT_TRUE(kf.map_point_ids.is_view());
+  }
+  WriteMapFile(dir / "map.rrm", MakeTestMap(5));
+  ExpectMapsEqual(map, read);
+  read.keyframes[0].map_point_ids[0] = kNoId;
+  EXPECT_FALSE(read.keyframes[0].map_point_ids.is_view());
+  EXPECT_TRUE(read.keyframes[0].keypoints.is_view());
+  EXPECT_EQ(read.keyframes[1].map_point_ids, map.keyframes[1].map_point_ids);
+  // Parsed from bytes in memory, nothing is viewed.
+  EXPECT_FALSE(ParseMap(EncodeMap(map), "bytes").keyframes[0].keypoints.is_view());
+}
+
 TEST(MapFile, MetaAlone) {
   const MapData map = MakeTestMap(5);
   MapCounts c;

@@ -264,7 +264,7 @@ std::string RunMapInfo(const MapInfoOptions& options) {
 std::string RunMapVerify(const MapVerifyOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw UsageError(why);
-  const HeapReservation heap = ReserveHeapForMap(options.map, 2, 0.5);
+  const HeapReservation heap = ReserveHeapForMap(options.map, 1, 0.25);
   const MapData map = ReadMapFile(options.map);
   std::string text = options.map.string() + ": ok (" + std::to_string(map.keyframes.size()) +
                      " keyframes, " + std::to_string(map.map_points.size()) + " map points)";
@@ -340,7 +340,7 @@ std::string RunMapAlignFloor(const MapAlignFloorOptions& options) {
   const std::string name = options.map.string();
   MapData map;
   {
-    const HeapReservation heap = ReserveHeapForMap(options.map, 2, 0.5);
+    const HeapReservation heap = ReserveHeapForMap(options.map, 1, 0.25);
     map = ReadMapFile(options.map);
   }
   std::optional<RgbdSequence> sequence;

@@ -233,9 +233,10 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
   WorkerPool pool(recompute_bow ? 2 : 1);
   pool.ParallelFor(frames.size(), [&](size_t k) {
     KeyFrameRecord& r = data.keyframes[k];
-    std::vector<Keypoint> keypoints(r.keypoints.size());
+    const RecordArray<MapKeypoint>& map_keypoints = r.keypoints;  // Read in place.
+    std::vector<Keypoint> keypoints(map_keypoints.size());
     for (size_t i = 0; i < keypoints.size(); ++i) {
-      const MapKeypoint& m = r.keypoints[i];
+      const MapKeypoint& m = map_keypoints[i];
       Keypoint& kp = keypoints[i];
       kp.pixel = {m.pixel_x, m.pixel_y};
       kp.undistorted = {m.undistorted_x, m.undistorted_y};
@@ -246,7 +247,7 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
     }
     Frame& frame = frames[k].emplace(
         r.frame_id, r.timestamp,
-        BuildFrameFeatures(sensor, std::move(keypoints), std::move(r.descriptors)));
+        BuildFrameFeatures(sensor, std::move(keypoints), std::move(r.descriptors).TakeVector()));
     frame.SetPose(RigidOf(r.T_cam_world));
     if (recompute_bow) {
       frame.ComputeBow(vocabulary, bow_levels_up);
