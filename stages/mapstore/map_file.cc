@@ -921,22 +921,34 @@ void CheckCounts(const Sections& s, const MapCounts& c, const std::string& sourc
   CheckTotal(sum_observations, c.observations, "observations", "map_points", source);
 }
 
-// Sections whose records a map read from a mapped file views in place.
-constexpr bool Viewed(int section) {
-  return section == kKeypoints || section == kDescriptors || section == kKfPoints;
-}
+// Where the parsed bytes are: a mapped file (`file`; null for bytes in
+// memory), prefaulted and released section by section, whose keypoints,
+// descriptors and map point ids the records view in place when `records`
+// says so.
+struct MappedSource {
+  std::shared_ptr<const MappedFile> file;
+  MapRecords records = MapRecords::kCopied;
+
+  // The keep-alive of the viewed arrays (null: they are copied).
+  std::shared_ptr<const void> ViewedFile() const {
+    return records == MapRecords::kViewed ? file : nullptr;
+  }
+  bool Views(int section) const {
+    return file != nullptr && records == MapRecords::kViewed &&
+           (section == kKeypoints || section == kDescriptors || section == kKfPoints);
+  }
+};
 
 // The records, one section at a time; a mapped file's copied section is
 // dropped from memory once parsed (`mapping`, when non-null, holds the
 // sections), so the records, the viewed sections and one more are resident at
 // once. Every read stays within its section by CheckCounts.
-void ParseRecords(const Sections& s, const MapCounts& c,
-                  const std::shared_ptr<const MappedFile>& mapping, MapData* map) {
+void ParseRecords(const Sections& s, const MapCounts& c, const MappedSource& source, MapData* map) {
   const auto prefault = [&](int i) {
-    if (mapping != nullptr) mapping->Prefault(s[i]);
+    if (source.file != nullptr) source.file->Prefault(s[i]);
   };
   const auto release = [&](int i) {
-    if (mapping != nullptr && !Viewed(i)) mapping->Release(s[i]);
+    if (source.file != nullptr && !source.Views(i)) source.file->Release(s[i]);
   };
   const uint8_t* table = s[kKeyframes].data();
   prefault(kKeyframes);
@@ -946,7 +958,7 @@ void ParseRecords(const Sections& s, const MapCounts& c,
   }
   for (const int i : {kKeypoints, kDescriptors, kKfPoints, kBow, kFeatureVectors, kGraph}) {
     prefault(i);
-    ParseKeyframeEntries(i, s[i], c, table, mapping, &map->keyframes);
+    ParseKeyframeEntries(i, s[i], c, table, source.ViewedFile(), &map->keyframes);
     release(i);
   }
   release(kKeyframes);
@@ -964,17 +976,16 @@ void ParseRecords(const Sections& s, const MapCounts& c,
 
 // Drops the pages of every section that no record views (the checksum read
 // them all).
-void ReleaseCopiedSections(const std::vector<Sections>& parts, const MappedFile& mapping) {
+void ReleaseCopiedSections(const std::vector<Sections>& parts, const MappedSource& source) {
   for (const Sections& s : parts) {
     for (int i = 0; i < kNumSections; ++i) {
-      if (!Viewed(i)) mapping.Release(s[i]);
+      if (!source.Views(i)) source.file->Release(s[i]);
     }
   }
 }
 
 // One map's checked sections parsed (`where` names it in errors).
-MapData ParsePart(const Sections& s, const std::string& where,
-                  const std::shared_ptr<const MappedFile>& mapping) {
+MapData ParsePart(const Sections& s, const std::string& where, const MappedSource& mapping) {
   MapCounts c;
   MapData map = ParseMeta(s[kMeta], where, &c);
   CheckCounts(s, c, where);
@@ -982,10 +993,9 @@ MapData ParsePart(const Sections& s, const std::string& where,
   return map;
 }
 
-// `mapping`, when non-null, is the mapped file that `file` is (the map's
-// keyframes view it).
+// `mapping.file`, when non-null, is the mapped file that `file` is.
 MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info,
-                 const std::shared_ptr<const MappedFile>& mapping) {
+                 const MappedSource& mapping) {
   const ParsedHeader h = ParseHeader(file, source);
   // The known sections of the map and of its other maps (format 1.1, while
   // "<k>:meta" is listed), and the payload's checksum over all of them.
@@ -1013,7 +1023,7 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
     throw;
   }
   if (!intact.get()) ThrowCorruptPayload(h, parts.size(), source);
-  if (mapping != nullptr) ReleaseCopiedSections(parts, *mapping);  // Read by the checksum too.
+  if (mapping.file != nullptr) ReleaseCopiedSections(parts, mapping);  // Read by the checksum too.
   if (info != nullptr) *info = h.info;
   return map;
 }
@@ -1066,7 +1076,7 @@ MapData ParseMap(std::span<const uint8_t> file, const std::string& source, MapFi
   return ParseAll(file, source, info, {});
 }
 
-MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
+MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info, MapRecords records) {
   RequireFile(path, "map file");
   {
     // The header first, from a mapping that reads only the pages it touches:
@@ -1075,8 +1085,8 @@ MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
     const MappedFile probe(path);
     ReadMapFileInfo(probe.bytes(), path.string());
   }
-  const auto file = std::make_shared<const MappedFile>(path, /*populate=*/true);
-  return ParseAll(file->bytes(), path.string(), info, file);
+  const MappedSource mapping{std::make_shared<const MappedFile>(path, /*populate=*/true), records};
+  return ParseAll(mapping.file->bytes(), path.string(), info, mapping);
 }
 
 HeapReservation ReserveHeapForMap(const std::filesystem::path& path, double heap_factor,

@@ -511,7 +511,7 @@ class TrackSession {
     // for four times it, the part they use made resident meanwhile.
     const HeapReservation heap = ReserveHeapForMap(options_.load_map, 4, 1.75);
     MapFileInfo info;
-    MapData data = ReadMapFile(options_.load_map, &info);
+    MapData data = ReadMapFile(options_.load_map, &info, MapRecords::kCopied);
     CheckMapCompatible(data, camera_, vocabulary_, source);
     TrackStartup& startup = summary_.startup;
     startup.map_read_ms = MillisecondsSince(map_start);
