@@ -892,6 +892,7 @@ class TrackSession {
                           {"stage", a.stage},
                           {"bow_candidates", a.bow_candidates},
                           {"bow_query_ms", a.bow_query_ms},
+                          {"bow_stage_ms", a.bow_stage_ms},
                           {"direct_queries", a.direct_queries},
                           {"direct_matches", a.direct_matches},
                           {"inliers", a.inliers},

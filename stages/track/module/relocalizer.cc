@@ -327,7 +327,10 @@ KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves,
   *a = RelocalizationAttempt{};
   ClearMatches(frame);
   if (options_.method != RelocalizationMethod::kDirect) {
-    if (KeyFrame* kf = RelocalizeByBow(frame, solves, a)) {
+    const auto bow_start = SteadyClock::now();
+    KeyFrame* kf = RelocalizeByBow(frame, solves, a);
+    a->bow_stage_ms = MillisecondsSince(bow_start);
+    if (kf != nullptr) {
       a->stage = "bow";
       return kf;
     }

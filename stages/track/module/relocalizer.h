@@ -159,6 +159,7 @@ struct RelocalizationAttempt {
   // most that any verified pose reached.
   int inliers = 0;
   double bow_query_ms = 0;  // The keyframe database's query for the BoW candidates.
+  double bow_stage_ms = 0;  // The whole BoW stage: the query and its candidates' checks.
   double index_ms = 0;  // Waiting for the map-point index, or rebuilding it, when this attempt did.
   double ms = 0;        // The whole attempt (the tracker times it).
   double timestamp = 0;  // The frame's (the tracker sets it).
