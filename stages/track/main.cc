@@ -98,6 +98,10 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
                  "to the map, on 3 frames in a row, so revisits add none (0: ORB-SLAM2's rule "
                  "alone; docs/track.md)")
       ->capture_default_str();
+  app.add_option("--new-view-min-age", o->tracker.new_view_min_age,
+                 "With --new-view-fraction: its gate only on revisits, frames whose reference "
+                 "keyframe is at least this many keyframes older than the newest (0: every frame)")
+      ->capture_default_str();
   app.add_option("--restore-close-tracked", o->restore_close_tracked,
                  "The same when mapping on a --load-map map (restore mapping; ORB-SLAM2: 100)")
       ->capture_default_str();

@@ -342,6 +342,7 @@ nlohmann::json TrackOptions::ToJson() const {
           {"close_tracked", tracker.close_tracked},
           {"restore_close_tracked", restore_close_tracked},
           {"new_view_fraction", tracker.new_view_fraction},
+          {"new_view_min_age", tracker.new_view_min_age},
           {"ba_depth_fallback", local_mapping.bundle_adjustment.depth_fallback},
           {"small_vocab_groups", small_vocab_groups},
           {"expand_all_local_keyframes", tracker.expand_all_local_keyframes},

@@ -68,6 +68,7 @@ struct TrackOptions {
   // binds these (CLI flag / run.json name):
   //   tracker.close_tracked                        --close-tracked / close_tracked
   //   tracker.new_view_fraction                    --new-view-fraction
+  //   tracker.new_view_min_age                     --new-view-min-age
   //   tracker.expand_all_local_keyframes           --expand-all-local-keyframes
   //   local_mapping.bundle_adjustment.depth_fallback  --[no-]ba-depth-fallback /
   //                                                   ba_depth_fallback (also

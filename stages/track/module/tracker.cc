@@ -24,6 +24,11 @@ bool TrackerOptions::Check(std::string* why) const {
       *why = "new_view_fraction = " + std::to_string(new_view_fraction) + "; must be in [0, 1)";
     return false;
   }
+  if (new_view_min_age < 0) {
+    if (why != nullptr)
+      *why = "new_view_min_age = " + std::to_string(new_view_min_age) + "; must be >= 0";
+    return false;
+  }
   std::string reason;
   if (!relocalization.Check(&reason)) {
     if (why != nullptr) *why = "relocalization." + reason;
@@ -228,6 +233,11 @@ bool Tracker::CompareWithLocalMap() {
     if (!covered[i]) uncovered += current_.map_points[i] == nullptr || current_.outlier[i];
   }
   return uncovered > options_.close_untracked && uncovered > options_.new_view_fraction * close;
+}
+
+bool Tracker::Revisits() const {
+  const uint64_t age = map_->num_created_keyframes() - 1 - reference_keyframe_->id();
+  return age >= static_cast<uint64_t>(options_.new_view_min_age);
 }
 
 bool Tracker::LacksView() const {
@@ -591,11 +601,12 @@ bool Tracker::NeedNewKeyFrame() const {
   const bool c1c = matches_inliers_ < reference_matches * 0.25 || need_close;
   const bool c2 =
       (matches_inliers_ < reference_matches * ratio || need_close) && matches_inliers_ > 15;
-  // Restore mapping or new_view_fraction: keyframes only where the map
+  // Restore mapping, or new_view_fraction where the frame revisits: keyframes only where the map
   // lacks the view (the close keypoints no map point accounts for, on
   // kLacksViewFrames frames in a row); restore mapping then also once per
   // max_keyframe_gap frames.
-  const bool lacks_view = !GatesKeyFramesByView() || LacksView();
+  const bool gate = GatesKeyFramesByView() && (options_.restore_mapping || Revisits());
+  const bool lacks_view = !gate || LacksView();
   const bool restore = options_.restore_mapping && c1a && lacks_view && matches_inliers_ > 15;
   if (!((c1a || c1b || c1c) && ((c2 && lacks_view) || restore))) return false;
   if (mapper_idle) return true;
