@@ -939,10 +939,10 @@ struct MappedSource {
   }
 };
 
-// The records, one section at a time; a mapped file's copied section is
-// dropped from memory once parsed (`mapping`, when non-null, holds the
-// sections), so the records, the viewed sections and one more are resident at
-// once. Every read stays within its section by CheckCounts.
+// The records, one section at a time; when `source` is a mapped file, each
+// section it does not view is dropped from memory once parsed, so the
+// records, the viewed sections and one more are resident at once. Every
+// read stays within its section by CheckCounts.
 void ParseRecords(const Sections& s, const MapCounts& c, const MappedSource& source, MapData* map) {
   const auto prefault = [&](int i) {
     if (source.file != nullptr) source.file->Prefault(s[i]);

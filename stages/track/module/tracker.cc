@@ -601,10 +601,10 @@ bool Tracker::NeedNewKeyFrame() const {
   const bool c1c = matches_inliers_ < reference_matches * 0.25 || need_close;
   const bool c2 =
       (matches_inliers_ < reference_matches * ratio || need_close) && matches_inliers_ > 15;
-  // Restore mapping, or new_view_fraction where the frame revisits: keyframes only where the map
-  // lacks the view (the close keypoints no map point accounts for, on
-  // kLacksViewFrames frames in a row); restore mapping then also once per
-  // max_keyframe_gap frames.
+  // Restore mapping, or new_view_fraction on a revisit: keyframes only
+  // where the map lacks the view (the close keypoints no map point accounts
+  // for, on kLacksViewFrames frames in a row); restore mapping then also
+  // once per max_keyframe_gap frames.
   const bool gate = GatesKeyFramesByView() && (options_.restore_mapping || Revisits());
   const bool lacks_view = !gate || LacksView();
   const bool restore = options_.restore_mapping && c1a && lacks_view && matches_inliers_ > 15;
