@@ -95,8 +95,8 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
       ->capture_default_str();
   app.add_option("--new-view-fraction", o->tracker.new_view_fraction,
                  "Keyframes only where more than this fraction of the close keypoints is new "
-                 "to the map, on 3 frames in a row, so revisits add none (0: ORB-SLAM2's rule "
-                 "alone; docs/track.md)")
+                 "to the map, on 3 frames in a row, on revisits (--new-view-min-age), so they "
+                 "add few (0: ORB-SLAM2's rule alone; docs/track.md)")
       ->capture_default_str();
   app.add_option("--new-view-min-age", o->tracker.new_view_min_age,
                  "With --new-view-fraction: its gate only on revisits, frames whose reference "

@@ -105,7 +105,8 @@ struct TrackerOptions {
   // keyframes are culled as usual.
   bool restore_mapping = false;
   // Keyframes only where the map lacks the view in every mapping run, not
-  // only on a loaded map (revisits add no keyframes): the frame's close
+  // only on a loaded map (revisits add few keyframes; on the frames
+  // new_view_min_age says): the frame's close
   // keypoints that no local point accounts for must be more than this
   // fraction of its close keypoints (and more than close_untracked) on
   // kLacksViewFrames tracked frames in a row; ORB-SLAM2's rule decides
