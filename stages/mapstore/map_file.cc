@@ -796,8 +796,8 @@ RecordArray<T> EntriesAt(const uint8_t** p, uint32_t count,
   if (mapping != nullptr && reinterpret_cast<uintptr_t>(at) % alignof(T) == 0) {
     return RecordArray<T>::View(reinterpret_cast<const T*>(at), count, mapping);
   }
-  std::vector<T> copy(count);
-  if (count > 0) std::memcpy(copy.data(), at, sizeof(T) * count);
+  std::vector<T> copy;
+  CopyEntries(&at, count, sizeof(T), &copy);
   return copy;
 }
 

@@ -105,12 +105,11 @@ struct TrackerOptions {
   // keyframes are culled as usual.
   bool restore_mapping = false;
   // Keyframes only where the map lacks the view in every mapping run, not
-  // only on a loaded map (revisits add few keyframes; on the frames
-  // new_view_min_age says): the frame's close
-  // keypoints that no local point accounts for must be more than this
-  // fraction of its close keypoints (and more than close_untracked) on
-  // kLacksViewFrames tracked frames in a row; ORB-SLAM2's rule decides
-  // from there. The same gate tightens restore mapping's. 0: ORB-SLAM2's
+  // only on a loaded map, on the frames new_view_min_age says (revisits add
+  // few keyframes): the frame's close keypoints that no local point accounts
+  // for must be more than this fraction of its close keypoints (and more
+  // than close_untracked) on kLacksViewFrames tracked frames in a row;
+  // ORB-SLAM2's rule decides from there. The same gate tightens restore mapping's. 0: ORB-SLAM2's
   // rule alone (restore mapping: close_untracked alone). In [0, 1).
   double new_view_fraction = 0.0;
   // Where new_view_fraction's gate applies outside restore mapping: on
@@ -201,9 +200,9 @@ class Tracker {
   bool visual_odometry() const { return vo_; }
   // Frames tracked as visual odometry (localization only).
   size_t visual_odometry_frames() const { return visual_odometry_frames_; }
-  // Tracked frames whose view the map lacked (LacksView, when the keyframe
-  // rule is gated by it);
-  // only they may make a keyframe.
+  // Tracked frames whose view the map lacked (LacksView, counted when the
+  // keyframe rule is gated by it: restore mapping, or new_view_fraction on
+  // revisits, where only they may make a keyframe).
   size_t frames_lacking_view() const { return frames_lacking_view_; }
   size_t resets() const { return resets_; }
   // The pose optimizations' solves so far.
