@@ -461,6 +461,11 @@ void LocalMapper::Resume() {
   queue_cv_.notify_one();
 }
 
+bool LocalMapper::Paused() const {
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  return pauses_ > 0;
+}
+
 void LocalMapper::Reset() {
   const bool running = thread_.joinable();
   {

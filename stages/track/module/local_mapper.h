@@ -163,6 +163,9 @@ class LocalMapper {
   // meanwhile wait. No-ops in batch mode.
   void Pause();
   void Resume();
+  // Between Pause() and its Resume(): the tracker makes no keyframe then
+  // (ORB-SLAM2's isStopped / stopRequested in NeedNewKeyFrame).
+  bool Paused() const;
 
   // Counters; read them after Stop() in realtime mode.
   const LocalMappingCounters& counters() const { return counters_; }

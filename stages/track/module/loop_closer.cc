@@ -309,37 +309,16 @@ void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
   mapper_->Pause();
   size_t loop_index;
   LoopClosure record;
+  Rigid3d T_before;
+  EssentialGraphAdjuster essential_graph(sensor_, options_.essential_graph_min_weight,
+                                         options_.essential_graph_iterations);
   {
     std::lock_guard<std::mutex> lock(map_->mutex());
-    map_->UpdateConnections(keyframe);
-    const Rigid3d T_before = keyframe->T_cam_world();
-
+    T_before = keyframe->T_cam_world();
     // The keyframe and its neighbours, moved by the loop correction.
-    std::vector<KeyFrame*> moved = keyframe->covisible();
-    moved.push_back(keyframe);
-    std::sort(moved.begin(), moved.end(), IdLess());
-    std::vector<Rigid3d> corrected(moved.size()), non_corrected(moved.size());
-    const Rigid3d T_world_cam = keyframe->T_world_cam();
-    for (size_t k = 0; k < moved.size(); ++k) {
-      non_corrected[k] = moved[k]->T_cam_world();
-      corrected[k] = moved[k] == keyframe
-                         ? loop_.T_cam_world
-                         : moved[k]->T_cam_world() * T_world_cam * loop_.T_cam_world;
-    }
-    // Their points move with them (each once, with the first keyframe seeing it).
-    const KeyFrameId none = static_cast<KeyFrameId>(-1);
-    std::vector<KeyFrameId> corrected_reference(map_->num_created_map_points(), none);
-    for (size_t k = 0; k < moved.size(); ++k) {
-      const Rigid3d T_world_corrected = corrected[k].Inverse();
-      for (MapPoint* point : moved[k]->map_points()) {
-        if (point == nullptr || point->bad() || corrected_reference[point->id()] != none) continue;
-        point->SetPosition(T_world_corrected * (non_corrected[k] * point->position_world()));
-        corrected_reference[point->id()] = moved[k]->id();
-        point->UpdateNormalAndDepth(sensor_.pyramid);
-      }
-      moved[k]->SetPose(corrected[k]);
-      map_->UpdateConnections(moved[k]);
-    }
+    LoopCorrection correction =
+        MoveLoopNeighbourhood(sensor_, map_, keyframe, loop_.matched, loop_.T_cam_world);
+    const std::vector<KeyFrame*>& moved = correction.moved;
 
     // The loop's matched points replace the keyframe's own.
     for (size_t i = 0; i < loop_.matched_points.size(); ++i) {
@@ -369,7 +348,6 @@ void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
     }
 
     // The links the fusion made are the loop connections.
-    std::vector<std::vector<KeyFrame*>> loop_connections(moved.size());
     for (size_t k = 0; k < moved.size(); ++k) {
       if (moved[k]->bad()) continue;
       const std::vector<KeyFrame*> previous = moved[k]->covisible();
@@ -377,12 +355,16 @@ void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
       for (const KeyFrame::Connection& c : moved[k]->connections()) {
         const bool old = std::find(previous.begin(), previous.end(), c.keyframe) != previous.end();
         const bool neighbour = std::binary_search(moved.begin(), moved.end(), c.keyframe, IdLess());
-        if (!old && !neighbour) loop_connections[k].push_back(c.keyframe);
+        if (!old && !neighbour) correction.loop_connections[k].push_back(c.keyframe);
       }
     }
-
-    OptimizeEssentialGraph(keyframe, moved, non_corrected, loop_connections, corrected_reference);
-
+    essential_graph.Collect(*map_, std::move(correction));
+  }
+  // Solved without the map's lock, as ORB-SLAM2 does: tracking goes on.
+  essential_graph.Solve();
+  {
+    std::lock_guard<std::mutex> lock(map_->mutex());
+    essential_graph.Apply(map_);
     loop_.matched->AddLoopEdge(keyframe);
     keyframe->AddLoopEdge(loop_.matched);
     map_->ReleaseKeyFrame(loop_.matched);
@@ -402,6 +384,7 @@ void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
     record.correction_deg = RotationAngle(T_after.rotation, T_before.rotation) * 180.0 / M_PI;
     record.correction_ms = MillisecondsSince(start);
     std::lock_guard<std::mutex> counters_lock(counters_mutex_);
+    counters_.essential_graph += essential_graph.solves();
     counters_.loops.push_back(record);
     loop_index = counters_.loops.size() - 1;
   }
@@ -418,87 +401,6 @@ void LoopCloser::CorrectLoop(KeyFrame* keyframe) {
     ba_thread_ = std::thread([this, loop_index] { RunGlobalBundleAdjustment(loop_index, true); });
   } else {
     RunGlobalBundleAdjustment(loop_index, false);
-  }
-}
-
-void LoopCloser::OptimizeEssentialGraph(KeyFrame* keyframe, const std::vector<KeyFrame*>& moved,
-                                        const std::vector<Rigid3d>& non_corrected,
-                                        const std::vector<std::vector<KeyFrame*>>& loop_connections,
-                                        const std::vector<KeyFrameId>& corrected_reference) {
-  const std::vector<KeyFrame*> keyframes = map_->KeyFrames();
-  const size_t n = map_->num_created_keyframes();
-  std::vector<int> vertex(n, -1);
-  std::vector<int> moved_index(n, -1);
-  for (size_t k = 0; k < moved.size(); ++k) moved_index[moved[k]->id()] = static_cast<int>(k);
-  PoseGraph graph;
-  // Initial estimates: corrected poses for the moved keyframes (already set),
-  // the current ones elsewhere. The matched loop keyframe is fixed.
-  for (KeyFrame* kf : keyframes) {
-    vertex[kf->id()] = graph.AddVertex(kf->T_cam_world(), kf == loop_.matched);
-  }
-  const std::vector<Rigid3d> initial = graph.poses;
-  // Pose of a keyframe before the correction.
-  auto before = [&](const KeyFrame* kf) {
-    const int m = moved_index[kf->id()];
-    return m >= 0 ? non_corrected[m] : initial[vertex[kf->id()]];
-  };
-  std::set<std::pair<KeyFrameId, KeyFrameId>> inserted;
-  auto pair_of = [](const KeyFrame* a, const KeyFrame* b) {
-    return std::make_pair(std::min(a->id(), b->id()), std::max(a->id(), b->id()));
-  };
-  // Loop connections, from the corrected estimates.
-  for (size_t k = 0; k < moved.size(); ++k) {
-    KeyFrame* ki = moved[k];
-    if (ki->bad() || vertex[ki->id()] < 0) continue;
-    for (KeyFrame* kj : loop_connections[k]) {
-      if (kj->bad() || vertex[kj->id()] < 0) continue;
-      if ((ki != keyframe || kj != loop_.matched) &&
-          ki->Weight(kj) < options_.essential_graph_min_weight) {
-        continue;
-      }
-      const int i = vertex[ki->id()], j = vertex[kj->id()];
-      graph.edges.push_back({i, j, initial[j] * initial[i].Inverse()});
-      inserted.insert(pair_of(ki, kj));
-    }
-  }
-  // Spanning tree, earlier loop edges, strong covisibility: from the poses
-  // before the correction.
-  for (KeyFrame* ki : keyframes) {
-    const int i = vertex[ki->id()];
-    const Rigid3d T_world_i = before(ki).Inverse();
-    auto add = [&](KeyFrame* kj) {
-      graph.edges.push_back({i, vertex[kj->id()], before(kj) * T_world_i});
-    };
-    KeyFrame* parent = ki->parent();
-    if (parent != nullptr && !parent->bad() && vertex[parent->id()] >= 0) add(parent);
-    for (KeyFrame* l : ki->loop_edges()) {
-      if (!l->bad() && vertex[l->id()] >= 0 && l->id() < ki->id()) add(l);
-    }
-    for (KeyFrame* kn : ki->CovisibleWithWeight(options_.essential_graph_min_weight)) {
-      if (kn == parent || kn->bad() || vertex[kn->id()] < 0 || kn->id() >= ki->id()) continue;
-      if (kn->parent() == ki) continue;  // A child: its tree edge is there.
-      const auto& loops = ki->loop_edges();
-      if (std::find(loops.begin(), loops.end(), kn) != loops.end()) continue;
-      if (inserted.count(pair_of(ki, kn))) continue;
-      add(kn);
-    }
-  }
-  OptimizePoseGraph(&graph, options_.essential_graph_iterations, &counters_.essential_graph);
-
-  for (KeyFrame* kf : keyframes) kf->SetPose(graph.poses[vertex[kf->id()]]);
-  // Points move with the keyframe that corrected them, or their reference.
-  const KeyFrameId none = static_cast<KeyFrameId>(-1);
-  for (MapPoint* point : map_->MapPoints()) {
-    KeyFrameId ref = corrected_reference[point->id()];
-    if (ref == none) {
-      const KeyFrame* reference = point->reference_keyframe();
-      if (reference == nullptr) continue;
-      ref = reference->id();
-    }
-    const int v = vertex[ref];
-    if (v < 0) continue;
-    point->SetPosition(graph.poses[v].Inverse() * (initial[v] * point->position_world()));
-    point->UpdateNormalAndDepth(sensor_.pyramid);
   }
 }
 

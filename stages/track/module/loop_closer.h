@@ -35,7 +35,9 @@
 //    after the mapper, in the same thread; global BA runs there too.
 //    Bit-identical runs.
 //  - realtime: Start() runs a thread for steps 1-3; the correction pauses the
-//    local mapper and holds Map::mutex() while it moves the map; global BA
+//    local mapper (the tracker makes no keyframe meanwhile) and holds
+//    Map::mutex() while it moves the map, except while Ceres solves the
+//    essential graph (EssentialGraphAdjuster), when tracking goes on; global BA
 //    runs in a thread of its own, in collect / solve / apply phases (the map
 //    is locked and the mapper paused only to collect and to apply), and is
 //    aborted (its result dropped) when another loop is to be corrected.
@@ -172,10 +174,6 @@ class LoopCloser {
   void Process(KeyFrame* keyframe);
   void Run();
   void ReleaseCandidates(const KeyFrame* keep);
-  void OptimizeEssentialGraph(KeyFrame* keyframe, const std::vector<KeyFrame*>& corrected_keyframes,
-                              const std::vector<Rigid3d>& non_corrected,
-                              const std::vector<std::vector<KeyFrame*>>& loop_connections,
-                              const std::vector<KeyFrameId>& corrected_reference);
   void RunGlobalBundleAdjustment(size_t loop_index, bool realtime);
   void StopGlobalBundleAdjustment();
 

@@ -570,6 +570,7 @@ int Tracker::SearchLocalPoints() {
 }
 
 bool Tracker::NeedNewKeyFrame() const {
+  if (mapper_->Paused()) return false;  // Loop correction under way.
   const size_t keyframes = map_->num_keyframes();
   const uint64_t id = current_.id();
   const int max_gap = options_.max_keyframe_gap;

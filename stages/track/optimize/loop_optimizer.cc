@@ -2,10 +2,12 @@
 
 #include <ceres/ceres.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
-#include <unordered_map>
+#include <set>
 
+#include "stages/track/optimize/pose_graph_error.h"
 #include "stages/track/optimize/reprojection_error.h"
 
 namespace rrslam {
@@ -39,38 +41,6 @@ struct RelativeProjectionError {
   bool inverse;
 };
 
-// Residual of a pose-graph edge: T_j_i * T_iw * T_jw^-1 as (2 * quaternion
-// vector part, translation).
-struct PoseGraphEdgeError {
-  explicit PoseGraphEdgeError(const Rigid3d& T_j_i) : T_j_i(T_j_i) {}
-
-  template <typename T>
-  bool operator()(const T* pose_i, const T* pose_j, T* residuals) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> q_i(pose_i);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t_i(pose_i + 4);
-    const Eigen::Map<const Eigen::Quaternion<T>> q_j(pose_j);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t_j(pose_j + 4);
-    const Eigen::Quaternion<T> q_m = T_j_i.rotation.cast<T>();
-    const Eigen::Matrix<T, 3, 1> t_m = T_j_i.translation.cast<T>();
-    // T_jw^-1 = (q_j^-1, -q_j^-1 t_j); A = T_iw * T_jw^-1; E = T_m * A.
-    const Eigen::Quaternion<T> q_j_inv = q_j.conjugate();
-    const Eigen::Quaternion<T> q_a = q_i * q_j_inv;
-    const Eigen::Matrix<T, 3, 1> t_a = t_i - q_a * t_j;
-    Eigen::Quaternion<T> q_e = q_m * q_a;
-    const Eigen::Matrix<T, 3, 1> t_e = q_m * t_a + t_m;
-    const T sign = q_e.w() < T(0) ? T(-1) : T(1);
-    residuals[0] = T(2) * sign * q_e.x();
-    residuals[1] = T(2) * sign * q_e.y();
-    residuals[2] = T(2) * sign * q_e.z();
-    residuals[3] = t_e.x();
-    residuals[4] = t_e.y();
-    residuals[5] = t_e.z();
-    return true;
-  }
-
-  Rigid3d T_j_i;
-};
-
 ceres::Solver::Options SolverOptions(int iterations) {
   ceres::Solver::Options options;
   options.max_num_iterations = SuccessfulStepLimit::MaxIterationsFor(iterations);
@@ -89,6 +59,53 @@ ceres::Solver::Summary SolveCounted(ceres::Solver::Options options, ceres::Probl
   ceres::Solve(options, problem, &summary);
   if (counts != nullptr) counts->Add(summary, iterations, step_limit.successful_steps());
   return summary;
+}
+
+// Poses before and after an optimization, by keyframe id: of the
+// optimized keyframes (those not bad), and of the keyframes made since,
+// each moved with its spanning-tree parent (its pose relative to it kept).
+struct PoseChanges {
+  std::vector<uint8_t> moved;
+  std::vector<Rigid3d> before, after;
+  // A world point that moves rigidly with keyframe `id`.
+  Eigen::Vector3d Move(KeyFrameId id, const Eigen::Vector3d& p_world) const {
+    return after[id].Inverse() * (before[id] * p_world);
+  }
+};
+
+// Sets the poses `after` (per keyframe of `keyframes`, whose poses were
+// `before`) and moves the keyframes made since with their parents.
+PoseChanges ChangePoses(Map* map, const std::vector<KeyFrame*>& keyframes,
+                        const std::vector<Rigid3d>& before, const std::vector<Rigid3d>& after) {
+  const size_t n = map->num_created_keyframes();
+  PoseChanges c{std::vector<uint8_t>(n, 0), std::vector<Rigid3d>(n), std::vector<Rigid3d>(n)};
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    const KeyFrame* kf = keyframes[i];
+    if (kf->bad()) continue;
+    c.moved[kf->id()] = 1;
+    c.before[kf->id()] = before[i];
+    c.after[kf->id()] = after[i];
+  }
+  if (map->root() != nullptr) {
+    std::vector<KeyFrame*> stack = {map->root()};
+    while (!stack.empty()) {
+      KeyFrame* kf = stack.back();
+      stack.pop_back();
+      for (KeyFrame* child : kf->children()) {
+        if (child->bad()) continue;
+        if (!c.moved[child->id()] && c.moved[kf->id()]) {
+          c.moved[child->id()] = 1;
+          c.before[child->id()] = child->T_cam_world();
+          c.after[child->id()] = child->T_cam_world() * kf->T_world_cam() * c.after[kf->id()];
+        }
+        stack.push_back(child);
+      }
+    }
+  }
+  for (KeyFrame* kf : map->KeyFrames()) {
+    if (c.moved[kf->id()]) kf->SetPose(c.after[kf->id()]);
+  }
+  return c;
 }
 
 }  // namespace
@@ -183,9 +200,8 @@ double OptimizePoseGraph(PoseGraph* graph, int iterations, SolveCounts* counts) 
     if (graph->fixed[v]) problem.SetParameterBlockConstant(blocks[v].data());
   }
   for (const PoseGraph::Edge& e : graph->edges) {
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PoseGraphEdgeError, 6, 7, 7>(
-                                 new PoseGraphEdgeError(e.T_j_i)),
-                             nullptr, blocks[e.i].data(), blocks[e.j].data());
+    problem.AddResidualBlock(new PoseGraphEdgeCost(e.T_j_i), nullptr, blocks[e.i].data(),
+                             blocks[e.j].data());
   }
   if (graph->edges.empty()) return 0;
   ceres::Solver::Options options = SolverOptions(iterations);
@@ -201,27 +217,31 @@ void GlobalBundleAdjuster::Collect(const Map& map) {
   keyframes_ = map.KeyFrames();
   keyframe_fixed_.assign(keyframes_.size(), 0);
   poses_.resize(keyframes_.size());
-  std::unordered_map<KeyFrameId, uint32_t> keyframe_index;
+  std::vector<int32_t> keyframe_index(map.num_created_keyframes(), -1);
   for (size_t i = 0; i < keyframes_.size(); ++i) {
-    keyframe_index.emplace(keyframes_[i]->id(), static_cast<uint32_t>(i));
+    keyframe_index[keyframes_[i]->id()] = static_cast<int32_t>(i);
     keyframe_fixed_[i] = keyframes_[i] == map.root();
     poses_[i] = ToPoseBlock(keyframes_[i]->T_cam_world());
   }
+  // Sized first: on a big map, growing the arrays' fresh memory would cost
+  // more than the copy itself (3k keyframes: 1.2 M observations).
+  const std::vector<MapPoint*> map_points = map.MapPoints();
+  size_t observations = 0;
+  for (const MapPoint* point : map_points) observations += point->observations().size();
   points_.clear();
   positions_.clear();
   observations_.clear();
+  points_.reserve(map_points.size());
+  positions_.reserve(map_points.size());
+  observations_.reserve(observations);
   stats_ = {};
-  for (MapPoint* point : map.MapPoints()) {
+  for (MapPoint* point : map_points) {
     const uint32_t p = static_cast<uint32_t>(points_.size());
     bool observed = false;
     for (const MapPoint::Observation& o : point->observations()) {
-      auto it = keyframe_index.find(o.keyframe->id());
-      if (it == keyframe_index.end()) continue;
-      Observation obs;
-      static_cast<KeypointMeasurement&>(obs) = MeasurementOf(sensor_, *o.keyframe, o.index);
-      obs.point = p;
-      obs.keyframe = it->second;
-      observations_.push_back(obs);
+      const KeyFrameId id = o.keyframe->id();
+      if (id >= keyframe_index.size() || keyframe_index[id] < 0) continue;
+      observations_.push_back({p, static_cast<uint32_t>(keyframe_index[id]), o.index});
       observed = true;
     }
     if (!observed) continue;
@@ -240,18 +260,21 @@ void GlobalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
   auto* ordering = new ceres::ParameterBlockOrdering;
   std::vector<uint8_t> keyframe_used(keyframes_.size(), 0);
   for (const Observation& o : observations_) {
+    // From the keyframe's features, which never change: read here rather
+    // than in Collect, as the map's lock is not needed for them.
+    const KeypointMeasurement m = MeasurementOf(sensor_, *keyframes_[o.keyframe], o.keypoint);
     ceres::CostFunction* cost;
     double* pose = poses_[o.keyframe].data();
     double* point = positions_[o.point].data();
     // A point behind the camera has no defined residual: left out.
     double r[3];
     const double* parameters[] = {pose, point};
-    if (o.with_depth) {
+    if (m.with_depth) {
       cost = new ReprojectionError<3>(
-          k, Eigen::Vector3d(o.observed[0], o.observed[1], o.observed[2]), o.inv_sigma);
+          k, Eigen::Vector3d(m.observed[0], m.observed[1], m.observed[2]), m.inv_sigma);
     } else {
       cost =
-          new ReprojectionError<2>(k, Eigen::Vector2d(o.observed[0], o.observed[1]), o.inv_sigma);
+          new ReprojectionError<2>(k, Eigen::Vector2d(m.observed[0], m.observed[1]), m.inv_sigma);
     }
     if (!cost->Evaluate(parameters, r, nullptr)) {
       delete cost;
@@ -286,39 +309,12 @@ void GlobalBundleAdjuster::Solve(const std::atomic<bool>* abort) {
 }
 
 void GlobalBundleAdjuster::Apply(Map* map) {
-  // Poses before and after, by keyframe id, for the keyframes of the
-  // snapshot and those moved with their parent.
-  const size_t n = map->num_created_keyframes();
-  std::vector<uint8_t> has_new(n, 0);
-  std::vector<Rigid3d> before(n), after(n);
+  std::vector<Rigid3d> before(keyframes_.size()), after(keyframes_.size());
   for (size_t i = 0; i < keyframes_.size(); ++i) {
-    KeyFrame* kf = keyframes_[i];
-    if (kf->bad()) continue;
-    has_new[kf->id()] = 1;
-    before[kf->id()] = kf->T_cam_world();
-    after[kf->id()] = FromPoseBlock(poses_[i]);
+    before[i] = keyframes_[i]->T_cam_world();
+    after[i] = FromPoseBlock(poses_[i]);
   }
-  // Keyframes made during the solve: through the spanning tree from the root,
-  // each keeps its pose relative to its parent.
-  if (map->root() != nullptr) {
-    std::vector<KeyFrame*> stack = {map->root()};
-    while (!stack.empty()) {
-      KeyFrame* kf = stack.back();
-      stack.pop_back();
-      for (KeyFrame* child : kf->children()) {
-        if (child->bad()) continue;
-        if (!has_new[child->id()] && has_new[kf->id()]) {
-          has_new[child->id()] = 1;
-          before[child->id()] = child->T_cam_world();
-          after[child->id()] = child->T_cam_world() * kf->T_world_cam() * after[kf->id()];
-        }
-        stack.push_back(child);
-      }
-    }
-  }
-  for (KeyFrame* kf : map->KeyFrames()) {
-    if (has_new[kf->id()]) kf->SetPose(after[kf->id()]);
-  }
+  const PoseChanges change = ChangePoses(map, keyframes_, before, after);
   std::vector<uint8_t> in_snapshot(map->num_created_map_points(), 0);
   for (size_t p = 0; p < points_.size(); ++p) {
     in_snapshot[points_[p]->id()] = 1;
@@ -327,8 +323,124 @@ void GlobalBundleAdjuster::Apply(Map* map) {
   for (MapPoint* point : map->MapPoints()) {
     if (in_snapshot[point->id()]) continue;
     const KeyFrame* ref = point->reference_keyframe();
-    if (ref == nullptr || ref->bad() || !has_new[ref->id()]) continue;
-    point->SetPosition(after[ref->id()].Inverse() * (before[ref->id()] * point->position_world()));
+    if (ref == nullptr || ref->bad() || !change.moved[ref->id()]) continue;
+    point->SetPosition(change.Move(ref->id(), point->position_world()));
+  }
+}
+
+LoopCorrection MoveLoopNeighbourhood(const SensorModel& sensor, Map* map, KeyFrame* keyframe,
+                                     const KeyFrame* matched, const Rigid3d& T_cam_world) {
+  map->UpdateConnections(keyframe);
+  LoopCorrection c;
+  c.keyframe = keyframe;
+  c.matched = matched;
+  c.moved = keyframe->covisible();
+  c.moved.push_back(keyframe);
+  std::sort(c.moved.begin(), c.moved.end(), IdLess());
+  std::vector<Rigid3d> corrected(c.moved.size());
+  c.non_corrected.resize(c.moved.size());
+  const Rigid3d T_world_cam = keyframe->T_world_cam();
+  for (size_t k = 0; k < c.moved.size(); ++k) {
+    c.non_corrected[k] = c.moved[k]->T_cam_world();
+    corrected[k] = c.moved[k] == keyframe ? T_cam_world
+                                          : c.moved[k]->T_cam_world() * T_world_cam * T_cam_world;
+  }
+  // Their points move with them (each once, with the first keyframe seeing it).
+  c.corrected_reference.assign(map->num_created_map_points(), kNoKeyFrameId);
+  for (size_t k = 0; k < c.moved.size(); ++k) {
+    const Rigid3d T_world_corrected = corrected[k].Inverse();
+    for (MapPoint* point : c.moved[k]->map_points()) {
+      if (point == nullptr || point->bad() || c.corrected_reference[point->id()] != kNoKeyFrameId) {
+        continue;
+      }
+      point->SetPosition(T_world_corrected * (c.non_corrected[k] * point->position_world()));
+      c.corrected_reference[point->id()] = c.moved[k]->id();
+      point->UpdateNormalAndDepth(sensor.pyramid);
+    }
+    c.moved[k]->SetPose(corrected[k]);
+    map->UpdateConnections(c.moved[k]);
+  }
+  c.loop_connections.resize(c.moved.size());
+  return c;
+}
+
+void EssentialGraphAdjuster::Collect(const Map& map, LoopCorrection correction) {
+  keyframes_ = map.KeyFrames();
+  const size_t n = map.num_created_keyframes();
+  std::vector<int> vertex(n, -1), moved_index(n, -1);
+  const std::vector<KeyFrame*>& moved = correction.moved;
+  for (size_t k = 0; k < moved.size(); ++k) moved_index[moved[k]->id()] = static_cast<int>(k);
+  graph_ = {};
+  // Initial estimates: the corrected poses of the moved keyframes (already
+  // set), the current ones elsewhere.
+  for (KeyFrame* kf : keyframes_) {
+    vertex[kf->id()] = graph_.AddVertex(kf->T_cam_world(), kf == correction.matched);
+  }
+  initial_ = graph_.poses;
+  // Pose of a keyframe before the correction.
+  auto before = [&](const KeyFrame* kf) {
+    const int m = moved_index[kf->id()];
+    return m >= 0 ? correction.non_corrected[m] : initial_[vertex[kf->id()]];
+  };
+  std::set<std::pair<KeyFrameId, KeyFrameId>> inserted;
+  auto pair_of = [](const KeyFrame* a, const KeyFrame* b) {
+    return std::make_pair(std::min(a->id(), b->id()), std::max(a->id(), b->id()));
+  };
+  // Loop connections, from the corrected estimates.
+  for (size_t k = 0; k < moved.size(); ++k) {
+    KeyFrame* ki = moved[k];
+    if (ki->bad() || vertex[ki->id()] < 0) continue;
+    for (KeyFrame* kj : correction.loop_connections[k]) {
+      if (kj->bad() || vertex[kj->id()] < 0) continue;
+      const bool loop_pair = ki == correction.keyframe && kj == correction.matched;
+      if (!loop_pair && ki->Weight(kj) < min_weight_) continue;
+      const int i = vertex[ki->id()], j = vertex[kj->id()];
+      graph_.edges.push_back({i, j, initial_[j] * initial_[i].Inverse()});
+      inserted.insert(pair_of(ki, kj));
+    }
+  }
+  // Spanning tree, earlier loop edges, strong covisibility: from the poses
+  // before the correction.
+  for (KeyFrame* ki : keyframes_) {
+    const int i = vertex[ki->id()];
+    const Rigid3d T_world_i = before(ki).Inverse();
+    auto add = [&](KeyFrame* kj) {
+      graph_.edges.push_back({i, vertex[kj->id()], before(kj) * T_world_i});
+    };
+    KeyFrame* parent = ki->parent();
+    if (parent != nullptr && !parent->bad() && vertex[parent->id()] >= 0) add(parent);
+    for (KeyFrame* l : ki->loop_edges()) {
+      if (!l->bad() && vertex[l->id()] >= 0 && l->id() < ki->id()) add(l);
+    }
+    for (KeyFrame* kn : ki->CovisibleWithWeight(min_weight_)) {
+      if (kn == parent || kn->bad() || vertex[kn->id()] < 0 || kn->id() >= ki->id()) continue;
+      if (kn->parent() == ki) continue;  // A child: its tree edge is there.
+      const auto& loops = ki->loop_edges();
+      if (std::find(loops.begin(), loops.end(), kn) != loops.end()) continue;
+      if (inserted.count(pair_of(ki, kn))) continue;
+      add(kn);
+    }
+  }
+  corrected_reference_ = std::move(correction.corrected_reference);
+  solves_ = {};
+}
+
+void EssentialGraphAdjuster::Solve() { OptimizePoseGraph(&graph_, iterations_, &solves_); }
+
+void EssentialGraphAdjuster::Apply(Map* map) {
+  const PoseChanges change = ChangePoses(map, keyframes_, initial_, graph_.poses);
+  // Points move with the keyframe that corrected them, or their reference.
+  for (MapPoint* point : map->MapPoints()) {
+    KeyFrameId ref = point->id() < corrected_reference_.size() ? corrected_reference_[point->id()]
+                                                               : kNoKeyFrameId;
+    if (ref == kNoKeyFrameId) {
+      const KeyFrame* reference = point->reference_keyframe();
+      if (reference == nullptr) continue;
+      ref = reference->id();
+    }
+    if (!change.moved[ref]) continue;
+    point->SetPosition(change.Move(ref, point->position_world()));
+    point->UpdateNormalAndDepth(sensor_.pyramid);
   }
 }
 

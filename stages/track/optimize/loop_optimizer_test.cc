@@ -335,5 +335,80 @@ TEST_F(GlobalBundleAdjustmentTest, KeyFramesMadeDuringTheSolveMoveWithTheirParen
   EXPECT_GT(TranslationError(late->T_cam_world(), T_tracked), 1e-3);  // It did move.
 }
 
+// The same five keyframes, for the loop correction and its essential graph.
+class LoopCorrectionTest : public ::testing::Test, public testing::KeyFrameChainScene {};
+
+// The loop correction moves the keyframe and its covisible keyframes rigidly,
+// each point with the first of them (by id) that observes it.
+TEST_F(LoopCorrectionTest, NeighbourhoodMovesRigidlyWithItsPoints) {
+  KeyFrame* keyframe = keyframes_[4];
+  std::vector<Rigid3d> before;
+  for (KeyFrame* kf : keyframes_) before.push_back(kf->T_cam_world());
+  std::vector<Eigen::Vector3d> points_before;
+  for (MapPoint* p : map_.MapPoints()) points_before.push_back(p->position_world());
+  const Rigid3d T_corrected = SmallMotion(0.03, 0.1) * keyframe->T_cam_world();
+  const LoopCorrection c =
+      MoveLoopNeighbourhood(sensor_, &map_, keyframe, keyframes_[0], T_corrected);
+  ASSERT_EQ(c.moved.size(), 5u);  // All see the same scene.
+  ASSERT_EQ(c.loop_connections.size(), 5u);
+  const Rigid3d T_move = T_corrected.Inverse() * before[4];  // World before -> world after.
+  for (size_t k = 0; k < 5; ++k) {
+    EXPECT_EQ(c.moved[k], keyframes_[k]);
+    EXPECT_EQ(c.non_corrected[k].translation, before[k].translation);
+    const Rigid3d expected = (T_move * before[k].Inverse()).Inverse();
+    EXPECT_LT(TranslationError(keyframes_[k]->T_cam_world(), expected), 1e-9) << k;
+  }
+  const std::vector<MapPoint*> points = map_.MapPoints();
+  for (size_t i = 0; i < points.size(); ++i) {
+    const KeyFrameId ref = c.corrected_reference[points[i]->id()];
+    ASSERT_NE(ref, kNoKeyFrameId);
+    EXPECT_EQ(ref, points[i]->observations().front().keyframe->id());
+    EXPECT_LT((points[i]->position_world() - T_move * points_before[i]).norm(), 1e-9);
+  }
+}
+
+// The essential graph after a loop that moved keyframe 4 alone: the matched
+// keyframe 0 stays fixed, the others spread the correction, a keyframe made
+// while the graph solves moves with its parent, and points keep their
+// place in their reference keyframe's camera.
+TEST_F(LoopCorrectionTest, EssentialGraphSpreadsTheCorrection) {
+  KeyFrame* keyframe = keyframes_[4];
+  LoopCorrection c;
+  c.keyframe = keyframe;
+  c.matched = keyframes_[0];
+  c.moved = {keyframe};
+  c.non_corrected = {keyframe->T_cam_world()};
+  c.loop_connections = {{keyframes_[0]}};
+  c.corrected_reference.assign(map_.num_created_map_points(), kNoKeyFrameId);
+  keyframe->SetPose(SmallMotion(0.03, 0.1) * keyframe->T_cam_world());
+  std::vector<Rigid3d> collected;
+  for (KeyFrame* kf : keyframes_) collected.push_back(kf->T_cam_world());
+  std::vector<std::pair<MapPoint*, Eigen::Vector3d>> in_reference;
+  for (MapPoint* p : map_.MapPoints()) {
+    in_reference.emplace_back(p, p->reference_keyframe()->ToCamera(p->position_world()));
+  }
+  EssentialGraphAdjuster adjuster(sensor_, 100, 20);
+  adjuster.Collect(map_, c);
+  EXPECT_EQ(adjuster.vertices(), 5);
+  EXPECT_GE(adjuster.edges(), 5);  // The loop pair and the spanning tree at least.
+  KeyFrame* late = AddKeyFrame(SmallMotion(0.09, 0.36));
+  map_.UpdateConnections(late);
+  late->SetParent(keyframe);
+  const Rigid3d T_late_parent = late->T_cam_world() * keyframe->T_world_cam();
+  adjuster.Solve();
+  adjuster.Apply(&map_);
+  EXPECT_GT(adjuster.solves().successful_steps, 0);
+  EXPECT_EQ(keyframes_[0]->T_cam_world().translation, collected[0].translation);
+  for (size_t k = 1; k < 5; ++k) {
+    EXPECT_GT(TranslationError(keyframes_[k]->T_cam_world(), collected[k]), 1e-4) << k;
+  }
+  const Rigid3d T_after = late->T_cam_world() * keyframe->T_world_cam();
+  EXPECT_LT(TranslationError(T_after, T_late_parent), 1e-9);
+  EXPECT_LT(RotationAngle(T_after.rotation, T_late_parent.rotation), 1e-9);
+  for (const auto& [p, x] : in_reference) {
+    EXPECT_LT((p->reference_keyframe()->ToCamera(p->position_world()) - x).norm(), 1e-9);
+  }
+}
+
 }  // namespace
 }  // namespace rrslam
