@@ -28,12 +28,13 @@
 // come twice, each mapped by rrslam-track with --vocab, with the default
 // keyframe rule and with --new-view-fraction 0.15; the keyframes left at the
 // end are counted by the pass whose frame made them, and the later passes
-// together may add at most 10% of the first's (issue 35). With
-// --track, on each map of at most --global-ba-max-keyframes keyframes, in
-// process: loop closing's global BA on a thread of its own while a camera is
-// localized in the map at 30 Hz (global_ba_while_tracking.h): the BA's time
-// and the tracking times before and during it (goal at 3k keyframes:
-// tracking p95 during the BA within 1.5x of before it). With --synth and
+// together may add at most 10% of the first's (issue 35). With --track, in
+// process, on every map loop closing's essential graph after a made-up loop,
+// and on each map of at most --global-ba-max-keyframes keyframes its global
+// BA, each on a thread of its own while a camera is localized in the map at
+// 30 Hz (loop_step_while_tracking.h): the step's time and the tracking times
+// before and during it (goal at 3k keyframes and more: tracking p95 during
+// the step within 1.5x of before it). With --synth and
 // --building-frames, the building's tour (rrslam-synth --scene building
 // --trajectory tour) mapped in one run: keyframes, loops, ATE, timings and
 // the saved map's size.
@@ -51,7 +52,7 @@
 #include <vector>
 
 #include "bench/common/bench_report.h"
-#include "bench/scale/global_ba_while_tracking.h"
+#include "bench/scale/loop_step_while_tracking.h"
 #include "common/chart.h"
 #include "common/clock.h"
 #include "common/dataset.h"
@@ -96,8 +97,9 @@ struct Row {
   double file_mb = 0, peak_mb = 0;              // 10^6 bytes.
   double first_pose_s = 0;                      // Median over the cold starts.
   double relocalization_p95_ms = 0, tracking_median_ms = 0, local_mapping_ms = 0;
-  double global_ba_s = 0;  // 0: not measured.
+  double global_ba_s = 0, essential_graph_s = 0;  // 0: not measured.
   double ba_tracking_p95_before_ms = 0, ba_tracking_p95_during_ms = 0;
+  double eg_tracking_p95_before_ms = 0, eg_tracking_p95_during_ms = 0;
 };
 
 // What the cold starts on one map measured.
@@ -134,6 +136,7 @@ cv::Mat PlotCurves(const std::string& title, const std::string& v_label,
   std::vector<chart::LegendEntry> legend;
   std::vector<cv::Point2d> occupied;
   for (const Curve& c : curves) {
+    if (c.points.empty()) continue;
     std::vector<cv::Point> line;
     for (const Eigen::Vector2d& p : c.points) {
       occupied.push_back(axes(p));
@@ -157,8 +160,11 @@ void WritePlots(const std::string& out, const std::vector<Row>& rows, bool cold_
       verify{"verify, whole process (s)", {40, 150, 40}, {}},
       first_pose{"rrslam-track first pose (s)", {160, 40, 160}, {}};
   Curve global_ba{"global BA while tracking (s)", {120, 120, 120}, {}},
-      ba_before{"tracking p95 before it (ms)", {40, 150, 40}, {}},
-      ba_during{"tracking p95 during it (ms)", {40, 40, 200}, {}};
+      essential_graph{"essential graph while tracking (s)", {200, 120, 40}, {}},
+      ba_before{"tracking p95 before global BA (ms)", {40, 150, 40}, {}},
+      ba_during{"tracking p95 during global BA (ms)", {40, 40, 200}, {}},
+      eg_before{"tracking p95 before essential graph (ms)", {200, 200, 60}, {}},
+      eg_during{"tracking p95 during essential graph (ms)", {200, 120, 40}, {}};
   Curve file{"file (MB)", {200, 120, 40}, {}}, peak{"load peak memory (MB)", {40, 40, 200}, {}};
   Curve relocalization{"relocalization attempt p95 (ms)", {40, 40, 200}, {}},
       tracking{"tracking median (ms)", {40, 150, 40}, {}};
@@ -171,6 +177,11 @@ void WritePlots(const std::string& out, const std::vector<Row>& rows, bool cold_
       global_ba.points.emplace_back(r.keyframes, r.global_ba_s);
       ba_before.points.emplace_back(r.keyframes, r.ba_tracking_p95_before_ms);
       ba_during.points.emplace_back(r.keyframes, r.ba_tracking_p95_during_ms);
+    }
+    if (r.essential_graph_s > 0) {
+      essential_graph.points.emplace_back(r.keyframes, r.essential_graph_s);
+      eg_before.points.emplace_back(r.keyframes, r.eg_tracking_p95_before_ms);
+      eg_during.points.emplace_back(r.keyframes, r.eg_tracking_p95_during_ms);
     }
     file.points.emplace_back(r.keyframes, r.file_mb);
     peak.points.emplace_back(r.keyframes, r.peak_mb);
@@ -187,12 +198,13 @@ void WritePlots(const std::string& out, const std::vector<Row>& rows, bool cold_
     rrslam::WritePng(out + "-track.png", PlotCurves("rrslam-track on the map (localization only)",
                                                     "milliseconds", {relocalization, tracking}));
   }
-  if (!global_ba.points.empty()) {
-    rrslam::WritePng(out + "-global-ba.png", PlotCurves("global BA after a loop against keyframes",
-                                                        "seconds", {global_ba}));
+  if (!global_ba.points.empty() || !essential_graph.points.empty()) {
+    rrslam::WritePng(out + "-global-ba.png",
+                     PlotCurves("loop closing's optimizations against keyframes", "seconds",
+                                {essential_graph, global_ba}));
     rrslam::WritePng(out + "-global-ba-tracking.png",
-                     PlotCurves("tracking at 30 Hz before and during global BA", "milliseconds",
-                                {ba_before, ba_during}));
+                     PlotCurves("tracking at 30 Hz before and during loop closing's optimizations",
+                                "milliseconds", {ba_before, ba_during, eg_before, eg_during}));
   }
 }
 
@@ -313,29 +325,43 @@ void AddColdStarts(const ColdStarts& c, const std::string& s, bool big, double b
   report->Add(s, {"  keyframes it added", static_cast<double>(c.keyframes_created), "", "-", true});
 }
 
-// Global BA while tracking on `map` (goal at 3k keyframes, `big`).
-void AddGlobalBa(const Options& o, const fs::path& map, const std::string& s, bool big,
-                 Report* report, Row* row) {
-  rrslam::bench::GlobalBaWhileTrackingOptions g;
+// Loop closing's `step` while tracking on `map` (goal at 3k keyframes and
+// more, `big`).
+void AddLoopStep(const Options& o, rrslam::bench::LoopStep step, const fs::path& map,
+                 const std::string& s, bool big, Report* report, Row* row) {
+  using rrslam::bench::LoopStep;
+  rrslam::bench::LoopStepWhileTrackingOptions g;
   g.map = map;
   g.vocab = o.vocab;
   g.settings = o.settings;
   g.sequence = o.sequence;
   g.first_frame = o.first_frame;
-  const rrslam::bench::GlobalBaWhileTracking r = rrslam::bench::MeasureGlobalBaWhileTracking(g);
-  const std::string t = "global BA while tracking: ";
+  g.step = step;
+  const rrslam::bench::LoopStepWhileTracking r = rrslam::bench::MeasureLoopStepWhileTracking(g);
+  const bool ba = step == LoopStep::kGlobalBa;
+  const std::string t = ba ? "global BA while tracking: " : "essential graph while tracking: ";
   const auto goal = [&](const std::string& text) { return big ? text : std::string("-"); };
-  report->Note(s, "global BA of " + std::to_string(r.keyframes) + " keyframes, " +
-                      std::to_string(r.points) + " points, " + std::to_string(r.observations) +
-                      " observations, " + std::to_string(r.iterations) +
-                      " steps; one thread, beside tracking at 30 Hz (localization only)");
-  row->global_ba_s = r.total_ms / 1e3;
-  report->Add(s, {t + "BA time (collect, solve, apply)", row->global_ba_s, "s", "-", true});
-  report->Add(s, {"  collect under the map's lock", r.collect_ms, "ms", "-", true});
-  report->Add(s, {"  apply under the map's lock", r.apply_ms, "ms", "-", true});
+  const std::string steps = std::to_string(r.iterations) +
+                            " steps; one thread, beside tracking at 30 Hz (localization only)";
+  if (ba) {
+    report->Note(s, "global BA of " + std::to_string(r.keyframes) + " keyframes, " +
+                        std::to_string(r.points) + " points, " + std::to_string(r.observations) +
+                        " observations, " + steps);
+  } else {
+    report->Note(s, "essential graph of " + std::to_string(r.vertices) + " keyframes, " +
+                        std::to_string(r.edges) + " edges, after a loop made up over " +
+                        std::to_string(r.loop_ids) + " keyframe ids (" +
+                        rrslam::Format("%.2f m, ", g.correction_m) +
+                        rrslam::Format("%.1f deg", g.correction_deg) + "), " + steps);
+  }
   const double before = Percentile(r.before_ms, 0.95), during = Percentile(r.during_ms, 0.95);
-  row->ba_tracking_p95_before_ms = before;
-  row->ba_tracking_p95_during_ms = during;
+  (ba ? row->global_ba_s : row->essential_graph_s) = r.total_ms / 1e3;
+  (ba ? row->ba_tracking_p95_before_ms : row->eg_tracking_p95_before_ms) = before;
+  (ba ? row->ba_tracking_p95_during_ms : row->eg_tracking_p95_during_ms) = during;
+  report->Add(s, {t + "time (collect, solve, apply)", r.total_ms / 1e3, "s", "-", true});
+  report->Add(s, {"  collect under the map's lock", r.collect_ms, "ms", "-", true});
+  report->Add(s, {"  solve without it", r.solve_ms, "ms", "-", true});
+  report->Add(s, {"  apply under the map's lock", r.apply_ms, "ms", "-", true});
   report->Add(s, {t + "tracking p95 before (" + std::to_string(r.before_ms.size()) + " frames)",
                   before, "ms", "-", true});
   report->Add(s, {t + "tracking p95 during (" + std::to_string(r.during_ms.size()) + " frames)",
@@ -415,8 +441,10 @@ Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Voc
   if (!o.track.empty()) {
     AddColdStarts(RunColdStarts(o, path), s, big, base_row.tracking_median_ms,
                   base_row.local_mapping_ms, report, &row);
+    AddLoopStep(o, rrslam::bench::LoopStep::kEssentialGraph, path, s, keyframes >= 3000, report,
+                &row);
     if (static_cast<int>(keyframes) <= o.global_ba_max_keyframes) {
-      AddGlobalBa(o, path, s, keyframes >= 3000, report, &row);
+      AddLoopStep(o, rrslam::bench::LoopStep::kGlobalBa, path, s, keyframes >= 3000, report, &row);
     }
   }
   if (!o.keep) fs::remove(path);
@@ -595,7 +623,8 @@ int main(int argc, char** argv) {
   if (!o.track.empty()) {
     const std::string s = "base map (" + std::to_string(base.keyframes.size()) + " keyframes)";
     AddColdStarts(RunColdStarts(o, o.map), s, false, 0, 0, &report, &base_row);
-    AddGlobalBa(o, o.map, s, false, &report, &base_row);
+    AddLoopStep(o, rrslam::bench::LoopStep::kEssentialGraph, o.map, s, false, &report, &base_row);
+    AddLoopStep(o, rrslam::bench::LoopStep::kGlobalBa, o.map, s, false, &report, &base_row);
   }
   for (const int size : o.sizes) {
     rows.push_back(MeasureSize(o, base, vocab, size, base_row, &report));
