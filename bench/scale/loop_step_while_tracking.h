@@ -5,7 +5,8 @@
 // Each runs as loop closing runs it (loop_closer.h), in collect / solve /
 // apply phases: the map's state is collected under the map's lock, solved
 // without it, and applied under it again, on a thread of its own, while the
-// main thread tracks a real sequence in the map (localization only, frames
+// main thread tracks a real sequence in the map (loaded as rrslam-track
+// --load-map loads it, with its heap preparation; localization only, frames
 // paced at the camera's rate, going back and forth over `frames` frames of
 // the sequence so that tracking never runs out of frames). The step starts
 // after `baseline_frames` frames tracked without it:
@@ -16,9 +17,8 @@
 //    with the newest keyframe at least `loop_span` keyframes before it that
 //    shares no point with it (on a composed map, one in the same copy or
 //    the one before), that pair being the loop connection; then the
-//    essential graph
-//    (EssentialGraphAdjuster). Loop closing's fusion of the loop points,
-//    also under the lock, is not part of it.
+//    essential graph (EssentialGraphAdjuster). Loop closing's fusion of the
+//    loop points, also under the lock, is not part of it.
 //  - kGlobalBa: ORB-SLAM2's global BA (GlobalBundleAdjuster) of the map as
 //    it is.
 // What is measured is how long the step takes and what tracking sees
