@@ -75,7 +75,7 @@ Rigid3d CorrectedPose(const KeyFrame& keyframe, double metres, double degrees) {
 // The made-up loop's keyframe for the newest of `keyframes` (by id): the
 // newest at least `span` before it that shares no point with it (loop
 // closing never takes a connected keyframe), else the first.
-const KeyFrame* LoopKeyFrame(const std::vector<KeyFrame*>& keyframes, int span) {
+KeyFrame* LoopKeyFrame(const std::vector<KeyFrame*>& keyframes, int span) {
   const std::vector<KeyFrame*>& covisible = keyframes.back()->covisible();
   for (size_t i = keyframes.size() - 1 - span; i > 0; --i) {
     if (std::find(covisible.begin(), covisible.end(), keyframes[i]) == covisible.end()) {
@@ -97,13 +97,13 @@ void RunEssentialGraph(const SensorModel& sensor, const LoopStepWhileTrackingOpt
     std::sort(keyframes.begin(), keyframes.end(), IdLess());
     KeyFrame* keyframe = keyframes.back();
     map->UpdateConnections(keyframe);
-    const KeyFrame* matched = LoopKeyFrame(keyframes, o.loop_span);
+    KeyFrame* matched = LoopKeyFrame(keyframes, o.loop_span);
     r->loop_ids = static_cast<int>(keyframe->id() - matched->id());
     LoopCorrection correction = MoveLoopNeighbourhood(
         sensor, map, keyframe, matched, CorrectedPose(*keyframe, o.correction_m, o.correction_deg));
     const size_t k = std::find(correction.moved.begin(), correction.moved.end(), keyframe) -
                      correction.moved.begin();
-    correction.loop_connections[k].push_back(const_cast<KeyFrame*>(matched));
+    correction.loop_connections[k].push_back(matched);
     adjuster.Collect(*map, std::move(correction));
   };
   RunPhases(
