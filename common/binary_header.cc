@@ -12,6 +12,7 @@
 #include <span>
 #include <utility>
 
+#include "common/atomic_file.h"
 #include "common/errors.h"
 
 namespace rrslam {
@@ -26,6 +27,11 @@ uint64_t HeaderChecksum(std::span<const uint8_t> header) {
 }  // namespace
 
 uint64_t Checksum64(std::span<const uint8_t> bytes) {
+  return XXH3_64bits(bytes.data(), bytes.size());
+}
+
+uint64_t FileChecksum64(const std::filesystem::path& path) {
+  const std::string bytes = ReadFileToString(path);
   return XXH3_64bits(bytes.data(), bytes.size());
 }
 

@@ -23,7 +23,7 @@ struct FormatSpec {
   uint16_t minor;    // Compatible additions bump the minor version.
 };
 
-inline constexpr FormatSpec kFeaturesFormat = {"rrslam.features", "", 1, 0};
+inline constexpr FormatSpec kFeaturesFormat = {"rrslam.features", "", 1, 1};
 inline constexpr FormatSpec kVocabTreeFormat = {"rrslam.vocab_tree", "", 1, 0};
 inline constexpr FormatSpec kVocabularyFormat = {"rrslam.vocabulary", "RRSLVOCB", 1, 1};
 inline constexpr FormatSpec kMapFormat = {"rrslam.map", "RRSLMAP1", 1, 0};

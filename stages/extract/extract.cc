@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "common/atomic_file.h"
+#include "common/binary_header.h"
 #include "common/cli.h"
 #include "common/errors.h"
 #include "common/output_path.h"
@@ -83,6 +84,8 @@ namespace {
 struct FrameFeatures {
   std::vector<Keypoint> keypoints;
   std::vector<OrbDescriptor> descriptors;
+  uint64_t rgb_checksum = 0;  // FrameRecord's.
+  uint64_t depth_checksum = 0;
 };
 
 void ExtractFrame(const RgbdFrameRef& frame, const Settings& settings, const PinholeCamera& camera,
@@ -109,6 +112,9 @@ void ExtractFrame(const RgbdFrameRef& frame, const Settings& settings, const Pin
   depth_raw.convertTo(depth_metres, CV_32F, 1.0 / settings.depth_map_factor);
   extractor->Extract(gray, &out->keypoints, &out->descriptors);
   FinishKeypoints(camera, depth_metres, &out->keypoints);
+  // The files were just read, so their bytes are in the page cache.
+  out->rgb_checksum = FileChecksum64(frame.rgb_path);
+  out->depth_checksum = FileChecksum64(frame.depth_path);
 }
 
 }  // namespace
@@ -171,6 +177,8 @@ FeaturesFile ExtractFrames(const RgbdSequence& sequence, const Settings& setting
     record.depth_timestamp = ref.depth_timestamp;
     record.rgb_path = ref.rgb_path.string();
     record.depth_path = ref.depth_path.string();
+    record.rgb_checksum = results[k].rgb_checksum;
+    record.depth_checksum = results[k].depth_checksum;
     features.AddFrame(std::move(record), results[k].keypoints, results[k].descriptors);
     results[k] = {};  // Release memory as the file is assembled.
   }

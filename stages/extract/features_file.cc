@@ -31,13 +31,15 @@ void WriteFeaturesFile(const std::filesystem::path& path, const FeaturesFile& fe
       H5::Group frames = CreateH5Group(file, "frames");
       std::vector<double> rgb_ts(F), depth_ts(F);
       std::vector<std::string> rgb_paths(F), depth_paths(F);
-      std::vector<uint64_t> offsets(F + 1, 0);
+      std::vector<uint64_t> offsets(F + 1, 0), rgb_checksums(F), depth_checksums(F);
       for (size_t f = 0; f < F; ++f) {
         const FrameRecord& r = features.frames[f];
         rgb_ts[f] = r.rgb_timestamp;
         depth_ts[f] = r.depth_timestamp;
         rgb_paths[f] = r.rgb_path;
         depth_paths[f] = r.depth_path;
+        rgb_checksums[f] = r.rgb_checksum;
+        depth_checksums[f] = r.depth_checksum;
         offsets[f] = r.keypoint_begin;
         offsets[f + 1] = r.keypoint_end;
       }
@@ -45,6 +47,8 @@ void WriteFeaturesFile(const std::filesystem::path& path, const FeaturesFile& fe
       WriteH5Array<double>(frames, "depth_timestamp", depth_ts, {F});
       WriteH5StringArray(frames, "rgb_path", rgb_paths);
       WriteH5StringArray(frames, "depth_path", depth_paths);
+      WriteH5Array<uint64_t>(frames, "rgb_checksum", rgb_checksums, {F});
+      WriteH5Array<uint64_t>(frames, "depth_checksum", depth_checksums, {F});
       WriteH5Array<uint64_t>(frames, "keypoint_offset", offsets, {F + 1});
 
       H5::Group kps = CreateH5Group(file, "keypoints");
@@ -150,10 +154,16 @@ FeaturesFile ReadFeatures(const H5::H5File& file, const H5FormatInfo& info,
   if (rgb_paths.size() != F || depth_paths.size() != F) {
     throw DataError(name + ": frame path lists do not match the frame count");
   }
+  // The images' checksums: since format 1.1 (required there), 0 before.
+  std::vector<uint64_t> rgb_checksums(F, 0), depth_checksums(F, 0);
+  if (info.minor >= 1) {
+    rgb_checksums = ReadColumn<uint64_t>(frames, "rgb_checksum", F, 1, name);
+    depth_checksums = ReadColumn<uint64_t>(frames, "depth_checksum", F, 1, name);
+  }
   out.frames.resize(F);
   for (size_t f = 0; f < F; ++f) {
-    out.frames[f] = {rgb_ts[f],      depth_ts[f],  rgb_paths[f],
-                     depth_paths[f], o.offsets[f], o.offsets[f + 1]};
+    out.frames[f] = {rgb_ts[f],        depth_ts[f],        rgb_paths[f], depth_paths[f],
+                     rgb_checksums[f], depth_checksums[f], o.offsets[f], o.offsets[f + 1]};
   }
   H5::Group kps = OpenGroup(file, "keypoints", name);
   const auto pixel = ReadColumn<float>(kps, "pixel", N, 2, name);

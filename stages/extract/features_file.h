@@ -1,6 +1,9 @@
 // The features file written by `rrslam-extract` and read by every later stage
 // (format rrslam.features 1.0, HDF5).
 //
+// Format 1.1 added /frames/rgb_checksum and /frames/depth_checksum; a 1.0
+// file reads with both 0 (not recorded).
+//
 // Schema (F frames, N keypoints over all frames, frame f owning keypoints
 // [keypoint_offset[f], keypoint_offset[f+1])):
 //   root attributes   format, format_major, format_minor, producer, options
@@ -9,6 +12,8 @@
 //   /frames/depth_timestamp   (F)    float64  seconds
 //   /frames/rgb_path          (F)    string   as given by the sequence reader
 //   /frames/depth_path        (F)    string
+//   /frames/rgb_checksum      (F)    uint64   XXH3-64 of the image files' bytes
+//   /frames/depth_checksum    (F)    uint64   (FileChecksum64; since 1.1)
 //   /frames/keypoint_offset   (F+1)  uint64
 //   /keypoints/pixel          (N,2)  float32  level-0 pixel in the real (distorted) image
 //   /keypoints/undistorted    (N,2)  float32  ideal pixel after undistortion
@@ -47,6 +52,10 @@ struct FrameRecord {
   double depth_timestamp = 0;
   std::string rgb_path;
   std::string depth_path;
+  // XXH3-64 of the rgb and depth files' bytes it was extracted from
+  // (FileChecksum64); 0: not recorded (a format 1.0 file).
+  uint64_t rgb_checksum = 0;
+  uint64_t depth_checksum = 0;
   uint64_t keypoint_begin = 0;  // Index of its first keypoint in FeaturesFile::keypoints.
   uint64_t keypoint_end = 0;    // One past its last keypoint.
 };

@@ -33,6 +33,8 @@ FeaturesFile MakeFeatures(int frames, int per_frame, uint32_t seed) {
     }
     FrameRecord record{1000.0 + f / 30.0, 1000.01 + f / 30.0, "rgb/" + std::to_string(f) + ".png",
                        "depth/" + std::to_string(f) + ".png"};
+    record.rgb_checksum = (uint64_t{rng()} << 32) | rng();
+    record.depth_checksum = (uint64_t{rng()} << 32) | rng();
     features.AddFrame(record, kps, descs);
   }
   return features;
@@ -53,6 +55,8 @@ TEST(FeaturesFile, RoundTrip) {
   for (size_t f = 0; f < 5; ++f) {
     EXPECT_EQ(read.frames[f].rgb_path, written.frames[f].rgb_path);
     EXPECT_EQ(read.frames[f].depth_timestamp, written.frames[f].depth_timestamp);
+    EXPECT_EQ(read.frames[f].rgb_checksum, written.frames[f].rgb_checksum);
+    EXPECT_EQ(read.frames[f].depth_checksum, written.frames[f].depth_checksum);
     EXPECT_EQ(read.FrameKeypoints(f).size(), written.FrameKeypoints(f).size());
   }
   for (size_t i = 0; i < read.keypoints.size(); ++i) {
@@ -64,6 +68,32 @@ TEST(FeaturesFile, RoundTrip) {
     EXPECT_EQ(read.descriptors[i], written.descriptors[i]);
   }
   EXPECT_EQ(testing::TemporaryLeftovers(dir), std::vector<std::string>{});
+}
+
+// A file of format 1.0 (before the images' checksums) still reads, with
+// checksums 0; a 1.1 file without them is refused.
+TEST(FeaturesFile, ReadsFormat10WithoutChecksums) {
+  testing::TempDir dir;
+  WriteFeaturesFile(dir / "f.h5", MakeFeatures(3, 5, 7), "p", {});
+  {
+    H5::H5File file((dir / "f.h5").string(), H5F_ACC_RDWR);
+    H5::Group frames = file.openGroup("frames");
+    frames.unlink("rgb_checksum");
+    frames.unlink("depth_checksum");
+  }
+  EXPECT_THROW(ReadFeaturesFile(dir / "f.h5"), DataError);
+  {
+    H5::H5File file((dir / "f.h5").string(), H5F_ACC_RDWR);
+    file.removeAttr("format_minor");
+    WriteH5ScalarAttribute(file, "format_minor", 0, H5::PredType::STD_U16LE);
+  }
+  const FeaturesFile read = ReadFeaturesFile(dir / "f.h5");
+  EXPECT_EQ(read.format.minor, 0);
+  ASSERT_EQ(read.num_frames(), 3u);
+  for (const FrameRecord& r : read.frames) {
+    EXPECT_EQ(r.rgb_checksum, 0u);
+    EXPECT_EQ(r.depth_checksum, 0u);
+  }
 }
 
 TEST(FeaturesFile, SameContentGivesSameBytes) {

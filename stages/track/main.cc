@@ -19,7 +19,8 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
       ->required();
   app.add_option("--features", o->features,
                  "Features file from rrslam-extract to use instead of extracting (its frames "
-                 "must be frames of the sequence, its settings those of --settings)")
+                 "must be frames of the sequence, extracted from the same image files, its "
+                 "settings those of --settings)")
       ->capture_default_str();
   app.add_option("--associations", o->associations,
                  "Associations file (rgb_ts rgb depth_ts depth), relative to the sequence; "

@@ -217,6 +217,42 @@ std::vector<size_t> MatchFeatureFrames(const std::string& name, const FeaturesFi
   return frames;
 }
 
+// A features file's frames must come from this sequence's images, not from
+// files of the same names elsewhere (another synthetic sequence's frames are
+// all named rgb/000000.png, ... with the same timestamps): the rgb and depth
+// checksums recorded by extract (format 1.1) of kCheckedFeatureFrames frames
+// spread over the tracked ones, the first and last included, must be those
+// of the sequence's files. A format 1.0 file records none and is not checked.
+// `frames[k]` is the sequence frame of features-file frame `first + k`.
+constexpr size_t kCheckedFeatureFrames = 16;
+
+void CheckFeatureImages(const std::string& name, const FeaturesFile& features,
+                        const RgbdSequence& sequence, const std::vector<size_t>& frames,
+                        size_t first) {
+  if (features.format.minor < 1) {
+    spdlog::warn(
+        "{}: format 1.0 records no image checksums; its frames are not checked "
+        "against the images of {}",
+        name, sequence.dir().string());
+    return;
+  }
+  const size_t n = std::min(kCheckedFeatureFrames, frames.size());
+  for (size_t j = 0; j < n; ++j) {
+    const size_t k = n == 1 ? 0 : j * (frames.size() - 1) / (n - 1);
+    const FrameRecord& r = features.frames.at(first + k);
+    const RgbdFrameRef& frame = sequence.frame(frames[k]);
+    const std::pair<const std::filesystem::path*, uint64_t> files[] = {
+        {&frame.rgb_path, r.rgb_checksum}, {&frame.depth_path, r.depth_checksum}};
+    for (const auto& [path, recorded] : files) {
+      if (FileChecksum64(*path) != recorded) {
+        throw DataError(name + ": frame " + std::to_string(first + k) +
+                        " was extracted from other image bytes than " + path->string() +
+                        " (checksums differ); extract the features of this sequence again");
+      }
+    }
+  }
+}
+
 // What the run knows of the map it loaded (none: every field zero/empty).
 struct LoadedMap {
   std::string identity;
@@ -410,6 +446,9 @@ class TrackSession {
       for (size_t i = 0; i < sequence_.size(); ++i) frames_.push_back(i);
     }
     SelectFrames();
+    if (use_features_) {
+      CheckFeatureImages(options_.features.string(), features_, sequence_, frames_, first_kept_);
+    }
     const auto vocabulary_start = SteadyClock::now();
     vocabulary_ = Vocabulary::Load(options_.vocabulary);
     if (vocabulary_.empty()) {

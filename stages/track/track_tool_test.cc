@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "common/atomic_file.h"
+#include "common/binary_header.h"
 #include "common/settings.h"
 #include "common/testing.h"
 #include "stages/extract/features_file.h"
@@ -234,6 +235,8 @@ TEST_F(TrackToolTest, FeaturesFileMustMatchSequenceAndSettings) {
       record.rgb_path =
           i == 0 ? first_rgb : (dir_ / "seq" / "rgb" / (std::to_string(i) + ".png")).string();
       record.depth_path = (dir_ / "seq" / "depth" / (std::to_string(i) + ".png")).string();
+      if (fs::exists(record.rgb_path)) record.rgb_checksum = FileChecksum64(record.rgb_path);
+      record.depth_checksum = FileChecksum64(record.depth_path);
       std::vector<Keypoint> kps(10);
       std::vector<OrbDescriptor> ds(10);
       for (auto& d : ds) d = testing::RandomDescriptor(rng);
@@ -273,6 +276,36 @@ TEST_F(TrackToolTest, FeaturesFileMustMatchSequenceAndSettings) {
   write_features(dir_ / "good.h5", yaml, rgb0);
   r = Track(Seq(), SettingsFile(), Voc(), "--features " + (dir_ / "good.h5").string());
   EXPECT_EQ(r.exit_code, 75) << r.output;
+}
+
+// The features of another sequence whose files have the same names and
+// timestamps (every synthetic sequence's) were tracked without a word:
+// extract records the images' checksums and track compares them.
+TEST_F(TrackToolTest, FeaturesOfAnotherSequenceWithTheSameFileNames) {
+  WriteSequence(dir_ / "a", 4, 10000);
+  WriteSequence(dir_ / "b", 4, 10000, 0);  // Other colour images, the same depth.
+  WriteSequence(dir_ / "c", 4, 12000);     // The same colour images, other depth.
+  const fs::path features = dir_ / "a.h5";
+  ASSERT_EQ(RunTool("extract", "-q --sequence " + (dir_ / "a").string() + " --settings " +
+                                   (dir_ / "a" / "settings.yaml").string() + " --out " +
+                                   features.string())
+                .exit_code,
+            0);
+  for (const auto& [seq, file] : {std::pair{"b", "rgb"}, std::pair{"c", "depth"}}) {
+    const fs::path dir = dir_ / seq;
+    const auto r = Track(dir.string(), (dir / "settings.yaml").string(), Voc(),
+                         "--features " + features.string());
+    EXPECT_EQ(r.exit_code, 65) << r.output;
+    EXPECT_NE(
+        r.output.find(features.string() + ": frame 0 was extracted from other image bytes than " +
+                      (dir / file / "0.png").string()),
+        std::string::npos)
+        << r.output;
+    EXPECT_FALSE(fs::exists(out()));
+  }
+  const auto r = Track((dir_ / "a").string(), (dir_ / "a" / "settings.yaml").string(), Voc(),
+                       "--features " + features.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
 // --first-frame with --features tracks the features of the frames it names:

@@ -46,7 +46,7 @@ inline std::vector<H5Object> FeaturesObjects(FuzzInput& in) {
   return {
       text_attribute("format", "rrslam.features"),
       attribute("format_major", H5T_STD_U16LE, 1),
-      attribute("format_minor", H5T_STD_U16LE, 0),
+      attribute("format_minor", H5T_STD_U16LE, 1),
       text_attribute("producer", "rrslam-extract fuzz"),
       text_attribute("options", "{\"orb\":{\"n_features\":1000}}"),
       text_attribute("settings", "%YAML:1.0\nCamera.fx: 500\nCamera.fy: 500\n"),
@@ -55,6 +55,8 @@ inline std::vector<H5Object> FeaturesObjects(FuzzInput& in) {
       dataset("frames/depth_timestamp", H5T_IEEE_F64LE, {F}, pattern(F, 1.0 / 30, 1000.004)),
       H5Object{Kind::kDataset, "frames/rgb_path", H5T_NATIVE_DOUBLE, true, {F}, {}, rgb_paths},
       H5Object{Kind::kDataset, "frames/depth_path", H5T_NATIVE_DOUBLE, true, {F}, {}, depth_paths},
+      dataset("frames/rgb_checksum", H5T_STD_U64LE, {F}, pattern(F, 977, 12345)),
+      dataset("frames/depth_checksum", H5T_STD_U64LE, {F}, pattern(F, 991, 54321)),
       dataset("frames/keypoint_offset", H5T_STD_U64LE, {F + 1}, offsets),
       H5Object{Kind::kGroup, "keypoints", H5T_NATIVE_DOUBLE, false, {}, {}, {}},
       dataset("keypoints/pixel", H5T_IEEE_F32LE, {N, 2}, pattern(2 * N, 6.5, 1)),
