@@ -133,6 +133,11 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
   app.add_flag("--expand-all-local-keyframes", o->tracker.expand_all_local_keyframes,
                "Local map: neighbours of every observing keyframe (ORB-SLAM2 stops at the "
                "first parent)");
+  app.add_flag("--last-frame-fallback,!--no-last-frame-fallback", o->tracker.last_frame_fallback,
+               "When the motion model and the reference keyframe both fail (as right after a "
+               "relocalization, seen from another side), search the last frame's points where "
+               "they were (default: on); --no-last-frame-fallback loses the frame, as ORB-SLAM2")
+      ->capture_default_str();
 }
 
 }  // namespace

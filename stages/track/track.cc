@@ -382,6 +382,7 @@ nlohmann::json TrackOptions::ToJson() const {
           {"ba_depth_fallback", local_mapping.bundle_adjustment.depth_fallback},
           {"small_vocab_groups", small_vocab_groups},
           {"expand_all_local_keyframes", tracker.expand_all_local_keyframes},
+          {"last_frame_fallback", tracker.last_frame_fallback},
           {"relocalization", ToString(tracker.relocalization.method)},
           {"relocalization_covisible", tracker.relocalization.bow_covisible},
           {"loop_closing", loop_closing},
@@ -901,6 +902,7 @@ class TrackSession {
                         {"keyframes_created", map_.num_created_keyframes()},
                         {"keyframes_culled", mapper_->counters().culled_keyframes},
                         {"relocalizations", tracker_->relocalizations()},
+                        {"last_frame_fallbacks", tracker_->last_frame_fallbacks()},
                         {"loop_closures", closer_->counters().loops.size()},
                         {"resets", tracker_->resets()}};
     report["lost_timestamps"] = summary_.lost_timestamps;

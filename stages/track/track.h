@@ -70,6 +70,7 @@ struct TrackOptions {
   //   tracker.new_view_fraction                    --new-view-fraction
   //   tracker.new_view_min_age                     --new-view-min-age
   //   tracker.expand_all_local_keyframes           --expand-all-local-keyframes
+  //   tracker.last_frame_fallback                  --[no-]last-frame-fallback
   //   local_mapping.bundle_adjustment.depth_fallback  --[no-]ba-depth-fallback /
   //                                                   ba_depth_fallback (also
   //                                                   the final refinement's)

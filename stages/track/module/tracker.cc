@@ -66,9 +66,10 @@ bool Tracker::Track(Frame frame, bool* new_keyframe) {
     } else if (!was_lost) {
       ReplaceInLastFrame();
       if (velocity_ && !RecentlyRelocalized(2)) {
-        ok = TrackWithMotionModel();
+        ok = TrackWithMotionModel(*velocity_);
       }
       if (!ok) ok = TrackReferenceKeyFrame();
+      if (!ok) ok = TrackLastFrameStill();
     } else {
       ok = Relocalize();
     }
@@ -252,7 +253,10 @@ bool Tracker::TrackLocalizationOnly() {
     if (ok) vo_ = false;
     return ok;
   }
-  if (!vo_) return velocity_ ? TrackWithMotionModel() : TrackReferenceKeyFrame();
+  if (!vo_) {
+    if (velocity_) return TrackWithMotionModel(*velocity_);
+    return TrackReferenceKeyFrame() || TrackLastFrameStill();
+  }
 
   // The last frame was tracked mainly on temporary points: track with the
   // motion model and try relocalization too; relocalization wins.
@@ -261,7 +265,7 @@ bool Tracker::TrackLocalizationOnly() {
   std::vector<uint8_t> motion_outliers;
   Rigid3d motion_pose;
   if (velocity_) {
-    ok_motion = TrackWithMotionModel();
+    ok_motion = TrackWithMotionModel(*velocity_);
     motion_points = current_.map_points;
     motion_outliers = current_.outlier;
     motion_pose = current_.T_cam_world();
@@ -375,7 +379,14 @@ int Tracker::DiscardOutliers() {
   return in_map;
 }
 
-bool Tracker::TrackWithMotionModel() {
+bool Tracker::TrackLastFrameStill() {
+  if (!options_.last_frame_fallback || !last_frame_tracked_) return false;
+  const bool ok = TrackWithMotionModel(Rigid3d::Identity());
+  last_frame_fallbacks_ += ok;
+  return ok;
+}
+
+bool Tracker::TrackWithMotionModel(const Rigid3d& velocity) {
   // The last frame's pose follows its reference keyframe, which local bundle
   // adjustment may have moved since.
   const TrackedFrame& last_record = records_.back();
@@ -383,7 +394,7 @@ bool Tracker::TrackWithMotionModel() {
 
   if (options_.localization_only) AddTemporaryPoints();
 
-  current_.SetPose(*velocity_ * last_frame_.T_cam_world());
+  current_.SetPose(velocity * last_frame_.T_cam_world());
   std::fill(current_.map_points.begin(), current_.map_points.end(), nullptr);
   const Matcher matcher(sensor_, 0.9, true);
   int matches = matcher.SearchByProjection(&current_, last_frame_, options_.motion_search_radius);

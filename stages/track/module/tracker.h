@@ -76,6 +76,14 @@ struct TrackerOptions {
   // loop ends at the first parent added (a quirk of its code). Departure
   // (true): add the neighbours of every observing keyframe.
   bool expand_all_local_keyframes = false;
+  // When ORB-SLAM2's ways to track a frame fail (the motion model, then the
+  // reference keyframe's bag-of-words matches), search the last frame's
+  // points where they were, as the motion model would without motion.
+  // ORB-SLAM2 (false) loses the frame. Right after a relocalization ORB-SLAM2
+  // tries the reference keyframe alone, whose bag-of-words matches fall
+  // short where the frame sees it from another side, although the
+  // relocalized frame tracked 100 map points and more.
+  bool last_frame_fallback = true;
   // Vocabulary levels above the words whose nodes group features for BoW
   // search (ORB-SLAM2: 4; see FeatureVectorLevelsUp).
   int bow_levels_up = 4;
@@ -204,6 +212,8 @@ class Tracker {
   // keyframe rule is gated by it: restore mapping, or new_view_fraction on
   // revisits, where only they may make a keyframe).
   size_t frames_lacking_view() const { return frames_lacking_view_; }
+  // Frames tracked by last_frame_fallback (lost by ORB-SLAM2's ways).
+  size_t last_frame_fallbacks() const { return last_frame_fallbacks_; }
   size_t resets() const { return resets_; }
   // The pose optimizations' solves so far.
   const SolveCounts& pose_solves() const { return pose_solves_; }
@@ -241,7 +251,12 @@ class Tracker {
   void MarkSeen(const MapPoint* point, uint64_t stamp) {
     if (point->id() < seen_mark_.size()) seen_mark_[point->id()] = stamp;
   }
-  bool TrackWithMotionModel();
+  // The last frame's points searched around where `velocity` (T_cam_cam of
+  // this frame from the last) puts them.
+  bool TrackWithMotionModel(const Rigid3d& velocity);
+  // last_frame_fallback: the motion model without motion, when the last
+  // frame was tracked.
+  bool TrackLastFrameStill();
   // BoW matching against the reference keyframe from the last frame's pose.
   bool TrackReferenceKeyFrame();
   bool Relocalize();
@@ -297,6 +312,7 @@ class Tracker {
   bool vo_ = false;
   size_t visual_odometry_frames_ = 0;
   size_t frames_lacking_view_ = 0;
+  size_t last_frame_fallbacks_ = 0;
   // Points of the current visual-odometry step, owned here and never in the
   // map; ids from kTemporaryPointIdBase up (beyond any map point id).
   std::vector<std::unique_ptr<MapPoint>> temporary_points_;

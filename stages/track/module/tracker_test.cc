@@ -23,6 +23,7 @@ TEST(TrackerOptionsTest, DefaultsAreOrbSlam2RgbdValues) {
   EXPECT_EQ(o.close_tracked, 300);          // Departure; ORB-SLAM2's NeedNewKeyFrame: < 100.
   EXPECT_EQ(o.close_untracked, 70);
   EXPECT_FALSE(o.expand_all_local_keyframes);
+  EXPECT_TRUE(o.last_frame_fallback);  // Departure; ORB-SLAM2 loses the frame.
   EXPECT_EQ(o.bow_levels_up, 4);
   EXPECT_EQ(o.reset_max_keyframes, 5);  // Reset when lost with <= 5 keyframes.
   EXPECT_EQ(o.min_local_map_inliers, 30);
@@ -320,6 +321,29 @@ TEST_F(TrackerSceneTest, LocalMapSearchAddsPointsBeyondTheRelocalizationKeyFrame
   }
   EXPECT_GE(matched, 50);
   EXPECT_GT(beyond_reference, 0) << matched << " matched, all seen by the reference keyframe";
+}
+
+// Right after a relocalization ORB-SLAM2 tracks the next frame by the
+// reference keyframe's bag-of-words matches alone. Where they fall short
+// (here a bar no frame reaches), last_frame_fallback searches the last
+// frame's points where they were: the frame keeps a pose within a
+// centimetre, which ORB-SLAM2's way (off) loses.
+TEST_F(TrackerSceneTest, LastFrameFallbackTracksTheFrameAfterARelocalization) {
+  MakeTracker({});
+  for (int t = 0; t < 30; ++t) ASSERT_TRUE(TrackAt(PathPose(t))) << t;
+  for (const bool fallback : {false, true}) {
+    TrackerOptions o;
+    o.localization_only = true;
+    o.min_bow_matches = 1000000;  // The tracker's; relocalization has its own.
+    o.last_frame_fallback = fallback;
+    MakeTracker(o);
+    tracker_->StartOnLoadedMap();
+    ASSERT_TRUE(TrackAt(PathPose(17))) << fallback;  // Relocalized.
+    const Rigid3d next = PathPose(17.3);
+    EXPECT_EQ(TrackAt(next), fallback);
+    EXPECT_EQ(tracker_->last_frame_fallbacks(), fallback ? 1u : 0u);
+    if (fallback) EXPECT_LT(LastError(next), 0.01);
+  }
 }
 
 }  // namespace
