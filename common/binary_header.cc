@@ -8,12 +8,13 @@
 
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <new>
 #include <span>
 #include <utility>
 
-#include "common/atomic_file.h"
 #include "common/errors.h"
+#include "common/path_check.h"
 
 namespace rrslam {
 namespace {
@@ -31,8 +32,18 @@ uint64_t Checksum64(std::span<const uint8_t> bytes) {
 }
 
 uint64_t FileChecksum64(const std::filesystem::path& path) {
-  const std::string bytes = ReadFileToString(path);
-  return XXH3_64bits(bytes.data(), bytes.size());
+  RequireFile(path, "file");
+  std::ifstream stream(path, std::ios::binary);
+  if (!stream) throw NoInputError(path.string() + ": cannot open: " + std::strerror(errno));
+  // In pieces: memory stays bounded whatever the file's size.
+  StreamingChecksum64 checksum;
+  std::vector<uint8_t> piece(size_t{1} << 20);
+  while (stream) {
+    stream.read(reinterpret_cast<char*>(piece.data()), static_cast<std::streamsize>(piece.size()));
+    checksum.Update({piece.data(), static_cast<size_t>(stream.gcount())});
+  }
+  if (!stream.eof()) throw NoInputError(path.string() + ": read failed: " + std::strerror(errno));
+  return checksum.Digest();
 }
 
 bool HasMagic(std::span<const uint8_t> file, const FormatSpec& spec) {

@@ -49,8 +49,9 @@ void StoreLittleEndian(uint8_t* p, T value) {
 // XXH3-64 of `bytes` (the checksum of every rrslam binary format).
 uint64_t Checksum64(std::span<const uint8_t> bytes);
 
-// XXH3-64 of a whole file's bytes (for example an image that a features file
-// was extracted from). Throws NoInputError as ReadFileToString.
+// XXH3-64 of a whole file's bytes, read in pieces (for example an image that
+// a features file was extracted from): Checksum64 of its content. Throws
+// NoInputError when `path` is not a readable regular file.
 uint64_t FileChecksum64(const std::filesystem::path& path);
 
 // XXH3-64 of bytes given in pieces: Update with each piece in order; Digest

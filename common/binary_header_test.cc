@@ -32,6 +32,23 @@ TEST(BinaryHeader, RoundTrip) {
   EXPECT_NO_THROW(VerifyPayloadChecksum(view, "t.bin"));
 }
 
+// A file's checksum is its content's, over the 1 MiB pieces it is read in;
+// what is not a readable file is a NoInputError.
+TEST(FileChecksum64, IsTheContentsChecksum) {
+  testing::TempDir dir;
+  std::string text((size_t{3} << 20) + 5, '\0');
+  for (size_t i = 0; i < text.size(); ++i) text[i] = static_cast<char>(i * 131 + 7);
+  testing::WriteTextFile(dir / "big.bin", text);
+  testing::WriteTextFile(dir / "empty.bin", "");
+  const auto bytes = [](const std::string& t) {
+    return std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(t.data()), t.size());
+  };
+  EXPECT_EQ(FileChecksum64(dir / "big.bin"), Checksum64(bytes(text)));
+  EXPECT_EQ(FileChecksum64(dir / "empty.bin"), Checksum64({}));
+  EXPECT_THROW(FileChecksum64(dir / "absent.bin"), NoInputError);
+  EXPECT_THROW(FileChecksum64(dir.path()), NoInputError);
+}
+
 TEST(StreamingChecksum64, PiecesGiveTheWholeChecksum) {
   std::vector<uint8_t> bytes(10000);
   for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<uint8_t>(i * 131 + 7);

@@ -1,5 +1,5 @@
 // The features file written by `rrslam-extract` and read by every later stage
-// (format rrslam.features 1.0, HDF5).
+// (format rrslam.features 1.1, HDF5).
 //
 // Format 1.1 added /frames/rgb_checksum and /frames/depth_checksum; a 1.0
 // file reads with both 0 (not recorded).
