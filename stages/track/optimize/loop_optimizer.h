@@ -72,21 +72,7 @@ struct GlobalBundleAdjustmentStats {
   SolveCounts solves;
 };
 
-// Global bundle adjustment (ORB-SLAM2's GlobalBundleAdjustemnt with
-// nIterations = 10): every keyframe of the map (the root fixed) and every
-// map point, plain squared reprojection errors (u, v, u_R with depth): no
-// robust loss (ORB-SLAM2's loop closing calls it with bRobust = false) and
-// no outlier removal.
-//   Collect (map locked): snapshot of the keyframes' poses, the points'
-//     positions and the observations (point, keyframe, keypoint index).
-//   Solve (no map access but the keyframes' features, which never change):
-//     the observations' measurements, then `iterations` successful steps,
-//     or until `abort`.
-//   Apply (map locked): keyframes of the snapshot get their optimized
-//     poses; keyframes made since are moved with their spanning-tree parent
-//     (their pose relative to it kept); points of the snapshot get their
-//     optimized positions, later points move with their reference keyframe.
-//     Objects culled meanwhile are skipped.
+// "No keyframe": an unset entry of LoopCorrection::corrected_reference.
 inline constexpr KeyFrameId kNoKeyFrameId = static_cast<KeyFrameId>(-1);
 
 // The part of a loop correction (loop_closer.h, step 3) the essential graph
@@ -150,6 +136,21 @@ class EssentialGraphAdjuster {
   SolveCounts solves_;
 };
 
+// Global bundle adjustment (ORB-SLAM2's GlobalBundleAdjustemnt with
+// nIterations = 10): every keyframe of the map (the root fixed) and every
+// map point, plain squared reprojection errors (u, v, u_R with depth): no
+// robust loss (ORB-SLAM2's loop closing calls it with bRobust = false) and
+// no outlier removal.
+//   Collect (map locked): snapshot of the keyframes' poses, the points'
+//     positions and the observations (point, keyframe, keypoint index).
+//   Solve (no map access but the keyframes' features, which never change):
+//     the observations' measurements, then `iterations` successful steps,
+//     or until `abort`.
+//   Apply (map locked): keyframes of the snapshot get their optimized
+//     poses; keyframes made since are moved with their spanning-tree parent
+//     (their pose relative to it kept); points of the snapshot get their
+//     optimized positions, later points move with their reference keyframe.
+//     Objects culled meanwhile are skipped.
 class GlobalBundleAdjuster {
  public:
   explicit GlobalBundleAdjuster(const SensorModel& sensor, int iterations = 10)
