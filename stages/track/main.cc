@@ -50,6 +50,18 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
                "adjustment run to convergence, before the trajectories and the map are written "
                "(default: off; not with --localization-only; ORB-SLAM2 has no such step)")
       ->capture_default_str();
+  app.add_flag("--cull-revisits,!--no-cull-revisits", o->revisit_culling.enabled,
+               "After the last frame, cull the keyframes this run made where an older keyframe "
+               "holds the view (--revisit-distance, --revisit-angle) and whose points the map "
+               "holds already: revisits leave the map about the size of the first pass; every "
+               "frame keeps its pose (default: on; ORB-SLAM2 keeps them)")
+      ->capture_default_str();
+  app.add_option("--revisit-distance", o->revisit_culling.max_distance,
+                 "--cull-revisits: the older keyframe's camera centre within this many metres")
+      ->capture_default_str();
+  app.add_option("--revisit-angle", o->revisit_culling.max_angle_deg,
+                 "--cull-revisits: its optical axis within this many degrees")
+      ->capture_default_str();
   // Offline maps.
   app.add_option("--save-map", o->save_map,
                  "Write the final map (rrslam.map: keyframes, map points, graphs, bags of "

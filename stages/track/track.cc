@@ -339,7 +339,7 @@ bool TrackOptions::Check(std::string* why) const {
   }
   std::string module_why;
   if (!tracker.Check(&module_why) || !local_mapping.Check(&module_why) ||
-      !atlas.Check(&module_why)) {
+      !atlas.Check(&module_why) || !revisit_culling.Check(&module_why)) {
     return fail(module_why);
   }
   if (restore_close_tracked < 0) {
@@ -387,6 +387,9 @@ nlohmann::json TrackOptions::ToJson() const {
           {"relocalization_covisible", tracker.relocalization.bow_covisible},
           {"loop_closing", loop_closing},
           {"refine_map", refine_map},
+          {"cull_revisits", revisit_culling.enabled},
+          {"revisit_distance", revisit_culling.max_distance},
+          {"revisit_angle", revisit_culling.max_angle_deg},
           {"save_map", save_map.string()},
           {"load_map", load_map.string()},
           {"first_frame", first_frame},
@@ -416,6 +419,7 @@ class TrackSession {
     if (!options_.load_map.empty()) LoadMap();
     TrackFrames();
     CheckTrackingStarted();
+    if (mapping_) CullRevisits();
     if (options_.refine_map && mapping_) Refine();
     Summarize();
     WriteTrajectories();
@@ -795,6 +799,17 @@ class TrackSession {
     }
   }
 
+  // Revisit culling (module/revisit_culling.h) of this run's keyframes.
+  void CullRevisits() {
+    std::lock_guard<std::mutex> lock(map_.mutex());
+    revisit_culling_ = CullRevisitKeyFrames(*sensor_, loaded_.next_keyframe_id, &map_,
+                                            database_.get(), options_.revisit_culling);
+    if (revisit_culling_.culled > 0) {
+      spdlog::info("track: {} of {} keyframes on revisits culled in {:.0f} ms",
+                   revisit_culling_.culled, revisit_culling_.revisits, revisit_culling_.ms);
+    }
+  }
+
   void Refine() {
     std::lock_guard<std::mutex> lock(map_.mutex());
     MapRefinementOptions refine_options;
@@ -901,6 +916,7 @@ class TrackSession {
                         {"map_points", summary_.map_points},
                         {"keyframes_created", map_.num_created_keyframes()},
                         {"keyframes_culled", mapper_->counters().culled_keyframes},
+                        {"revisit_keyframes_culled", revisit_culling_.culled},
                         {"relocalizations", tracker_->relocalizations()},
                         {"last_frame_fallbacks", tracker_->last_frame_fallbacks()},
                         {"loop_closures", closer_->counters().loops.size()},
@@ -915,6 +931,10 @@ class TrackSession {
                                {"bundle_adjustments", counters.bundle_adjustments},
                                {"aborted_bundle_adjustments", counters.aborted_bundle_adjustments},
                                {"max_queue", counters.max_queue}};
+    report["revisit_culling"] = {{"enabled", options_.revisit_culling.enabled && mapping_},
+                                 {"revisits", revisit_culling_.revisits},
+                                 {"culled", revisit_culling_.culled},
+                                 {"ms", revisit_culling_.ms}};
     report["loop_closing"] = LoopClosingReport();
     report["optimization"] = OptimizationReport();
     report["timings"] = TimingsReport();
@@ -1163,6 +1183,7 @@ class TrackSession {
   double paced_s_ = 0, previous_timestamp_ = 0;  // --pace: sequence time delivered so far.
   // Results.
   MapRefinementStats refinement_;
+  RevisitCullingStats revisit_culling_;
   TrackSummary summary_;
   double map_save_ms_ = 0;
   size_t other_maps_saved_ = 0;

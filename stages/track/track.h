@@ -24,6 +24,7 @@
 
 #include "stages/track/module/atlas.h"
 #include "stages/track/module/local_mapper.h"
+#include "stages/track/module/revisit_culling.h"
 #include "stages/track/module/tracker.h"
 
 namespace rrslam {
@@ -108,6 +109,12 @@ struct TrackOptions {
   // relative to its reference keyframe. Not with --localization-only (the
   // map is not changed there). ORB-SLAM2 has no such step.
   bool refine_map = false;
+  // After the last frame (before --refine-map), the keyframes this run made
+  // where an older keyframe holds the view and whose points the map holds
+  // already are culled (module/revisit_culling.h): revisits leave the map
+  // about the size of the first pass; every frame keeps its pose. Not with
+  // --localization-only. ORB-SLAM2 keeps them.
+  RevisitCullingOptions revisit_culling;
 
   // Offline maps (docs/mapstore.md).
   // Map file (rrslam.map) written at the end of the run, after the last
