@@ -16,15 +16,16 @@
 # 0-299 twice (bench/track/make_kidnapped.sh), each with the defaults
 # (revisit keyframes culled after the last frame), with --no-cull-revisits
 # (ORB-SLAM2's keyframes) and with --new-view-fraction 0.15 instead: the
-# keyframes left by pass (the later passes add at most 10% of the first's). On the base map and every
-# composed map, loop closing's essential graph after a made-up loop, and on
-# those of up to 3k keyframes its global BA, each on a thread of its own
-# while a camera is localized in the map at 30 Hz (goal at 3k keyframes and
-# more: tracking p95 during it within 1.5x of before). Then the building: BENCH_SCALE_BUILDING_FRAMES frames of
+# keyframes left by pass (the later passes add at most 10% of the first's).
+# On the base map and every composed map, loop closing's essential graph
+# after a made-up loop, and on those of up to 3k keyframes its global BA,
+# each on a thread of its own while a camera is localized in the map at 30
+# Hz (goal at 3k keyframes and more: tracking p95 during it within 1.5x of
+# before). Then the building: BENCH_SCALE_BUILDING_FRAMES frames of
 # rrslam-synth's building tour (one tour: 6675; 0: skipped) mapped in one
 # run with --save-map; over whole tours (20025: three), the keyframes each
-# tour leaves (the second and third revisit the first's rooms). About 25 minutes (the building's rendering ~6, its
-# run ~3); the 10k map takes ~1.1 GB of disk in BENCH_SCALE_DIR while it is
+# tour leaves (the second and third revisit the first's rooms). About 25
+# minutes (the building's rendering ~6, its run ~3); the 10k map takes ~1.1 GB of disk in BENCH_SCALE_DIR while it is
 # measured, the building's sequence ~6 GB (kept for the next run).
 #
 # The base map: BENCH_SCALE_MAP, by default bench-dense's kitchen map

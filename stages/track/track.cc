@@ -916,7 +916,6 @@ class TrackSession {
                         {"map_points", summary_.map_points},
                         {"keyframes_created", map_.num_created_keyframes()},
                         {"keyframes_culled", mapper_->counters().culled_keyframes},
-                        {"revisit_keyframes_culled", revisit_culling_.culled},
                         {"relocalizations", tracker_->relocalizations()},
                         {"last_frame_fallbacks", tracker_->last_frame_fallbacks()},
                         {"loop_closures", closer_->counters().loops.size()},
