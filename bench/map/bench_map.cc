@@ -160,6 +160,9 @@ struct RelocalizationSweep {
   int relocalized[2] = {0, 0};     // At the start frame.
   int within_second[2] = {0, 0};   // At a frame within 1 s (timestamps) of it.
   std::vector<double> attempt_ms;  // The start frames' attempts.
+  // The same less their wait for the map-point index, which a tracker
+  // builds once when a map loads (and each start here loads one).
+  std::vector<double> attempt_work_ms;
   // Relocalized start frames (ColdStart's three differences).
   PoseDifferences to_gt, to_map, map_to_gt;
   std::vector<ColdStart> starts;
@@ -336,6 +339,7 @@ RelocalizationSweep SweepRelocalization(const LoadedMap& m, const ExtractedFrame
         const auto& attempts = tracker.relocalization_attempts();
         if (!attempts.empty()) {
           sweep.attempt_ms.push_back(attempts.front().ms);
+          sweep.attempt_work_ms.push_back(attempts.front().ms - attempts.front().index_ms);
           start_record.ms = attempts.front().ms;
           start_record.stage = attempts.front().stage;
           start_record.attempt = attempts.front();
@@ -428,8 +432,11 @@ std::string ColdStartNote(const ColdStart& c) {
                   c.to_gt.deg, c.map_to_gt.cm, c.map_to_gt.deg);
   }
   std::string text = line;
-  std::snprintf(line, sizeof line, " (%d BoW candidates, %d direct matches, %d inliers)",
-                c.attempt.bow_candidates, c.attempt.direct_matches, c.attempt.inliers);
+  std::snprintf(line, sizeof line,
+                " (%d BoW candidates, %d direct matches, %d inliers; %.2f ms of it waiting for "
+                "the index)",
+                c.attempt.bow_candidates, c.attempt.direct_matches, c.attempt.inliers,
+                c.attempt.index_ms);
   text += line;
   if (c.within_s < 0) {
     text += "; no pose within 1 s";
@@ -445,8 +452,8 @@ std::string ColdStartNote(const ColdStart& c) {
 struct DirectStageCost {
   int relocalized = 0;
   int tried = 0;
-  std::vector<double> attempt_ms;
-  double index_ms = 0;  // The last start's.
+  std::vector<double> attempt_ms;  // Less the wait for the index.
+  double index_ms = 0;             // The last start's build.
 };
 
 DirectStageCost MeasureDirectStage(const LoadedMap& m, const ExtractedFrames& frames, int stride) {
@@ -461,7 +468,8 @@ DirectStageCost MeasureDirectStage(const LoadedMap& m, const ExtractedFrames& fr
     cost.relocalized += tracker.Track(frames.Make(i, 0));
     ++cost.tried;
     if (!tracker.relocalization_attempts().empty()) {
-      cost.attempt_ms.push_back(tracker.relocalization_attempts().front().ms);
+      const rrslam::RelocalizationAttempt& a = tracker.relocalization_attempts().front();
+      cost.attempt_ms.push_back(a.ms - a.index_ms);
     }
   }
   return cost;
@@ -497,7 +505,8 @@ void AddDirectStageScaling(const LoadedMap& m, const ExtractedFrames& frames,
     const rrslam::TimingSummary t = rrslam::SummarizeTimings(c.attempt_ms);
     report->Add(s, {"direct stage alone, " + what + ": relocalized", double(c.relocalized),
                     "of " + std::to_string(c.tried), "-", true});
-    report->Add(s, {"  attempt median", t.median, "ms", "-", true});
+    report->Add(s,
+                {"  attempt median (without the index build's wait)", t.median, "ms", "-", true});
     report->Add(s, {"  p95", t.p95, "ms", "-", true});
     report->Add(s, {"  index build", c.index_ms, "ms", "-", true});
   };
@@ -531,10 +540,17 @@ void AddColdStarts(const RelocalizationSweep& sweep, int stride, const std::stri
   for (const ColdStart& c : sweep.starts) by_direct += c.tracked && c.stage == "direct";
   report->Add(s,
               {"  relocalized by the direct stage", static_cast<double>(by_direct), "", "-", true});
-  report->Add(s, {"relocalization attempt, median of " + std::to_string(t.count), t.median, "ms",
-                  "<= 10 ms", t.median <= 10});
-  report->Add(s, {"  p95", t.p95, "ms", "<= 30 ms", t.p95 <= 30});
-  report->Add(s, {"  slowest", t.max, "ms", "-", true});
+  // The goals are on the attempts less their index waits, as bench-scale
+  // times them: a tracker builds the index once, when its map loads
+  // (startup's relocalization_index_ms), and each start here is a new one.
+  const rrslam::TimingSummary work = rrslam::SummarizeTimings(sweep.attempt_work_ms);
+  report->Add(s, {"relocalization attempt, median of " + std::to_string(work.count) +
+                      " (without the index build's wait)",
+                  work.median, "ms", "<= 10 ms", work.median <= 10});
+  report->Add(s, {"  p95", work.p95, "ms", "<= 30 ms", work.p95 <= 30});
+  report->Add(s, {"  slowest", work.max, "ms", "-", true});
+  report->Add(s, {"  with the wait: median", t.median, "ms", "-", true});
+  report->Add(s, {"  p95", t.p95, "ms", "-", true});
   AddPoseDifferences(sweep, s, report);
   for (const ColdStart& c : sweep.starts) report->Note(s, ColdStartNote(c));
 }

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <random>
+#include <tuple>
 
 #include "common/worker_pool.h"
+#include "stages/track/data/keyframe.h"
 #include "stages/track/data/map.h"
 #include "stages/track/data/map_point.h"
 
@@ -22,6 +24,15 @@ struct MapPointIndex::Table {
   std::vector<int> bits;
   std::vector<Slot> slots;  // A power of two.
   std::vector<uint32_t> rows;
+  // One bit per possible key, set for the keys in `slots` (keys of up to
+  // kPresenceMaxBits; empty for longer ones): most of a search's probes are
+  // of absent keys, answered by this small array (2^20 keys: 128 kB) from
+  // the cache instead of by a miss into `slots`.
+  std::vector<uint64_t> present;
+
+  bool MayHave(uint32_t key) const {
+    return present.empty() || (present[key >> 6] >> (key & 63) & 1) != 0;
+  }
 
   uint32_t Key(const OrbDescriptor& d) const {
     uint32_t key = 0;
@@ -59,6 +70,10 @@ bool MapPointIndexOptions::Check(std::string* why) const {
   if (probe_level < 0 || probe_level > 1) {
     return fail("probe_level = " + std::to_string(probe_level) + "; must be 0 or 1");
   }
+  if (min_extra_distance < 1 || min_extra_distance > 256) {
+    return fail("min_extra_distance = " + std::to_string(min_extra_distance) +
+                "; must be in [1, 256]");
+  }
   if (threads < 1 || threads > kMaxThreads) {
     return fail("threads = " + std::to_string(threads) + "; must be in [1, " +
                 std::to_string(kMaxThreads) + "]");
@@ -92,13 +107,83 @@ void MapPointIndex::Build(const std::vector<MapPoint*>& points) {
 
 void MapPointIndex::TakePoints(const std::vector<MapPoint*>& points) {
   built_from_map_ = false;
-  points_.clear();
+  row_points_.clear();
   descriptors_.clear();
   tables_.clear();
   for (MapPoint* p : points) {
     if (p == nullptr || p->bad()) continue;
-    points_.push_back(p);
+    row_points_.push_back(p);
     descriptors_.push_back(p->descriptor());
+  }
+  points_ = row_points_.size();
+  TakeObservationDescriptors();
+}
+
+namespace {
+
+// The descriptors of a point's observations, farthest first: each the one
+// farthest from its representative and those taken before it (ties: the
+// earlier observation), none nearer than `min_distance` bits to those.
+// Scratch kept between points.
+class FarthestFirst {
+ public:
+  explicit FarthestFirst(int min_distance) : min_distance_(min_distance) {}
+  // Appends `point`'s to `out`.
+  void Take(const MapPoint& point, std::vector<OrbDescriptor>* out) {
+    candidates_.clear();
+    words_.clear();
+    nearest_taken_.clear();
+    const DescriptorWords representative = ToWords(point.descriptor());
+    for (const MapPoint::Observation& o : point.observations()) {
+      candidates_.push_back(o.keyframe->features().descriptors[o.index]);
+      words_.push_back(ToWords(candidates_.back()));
+      nearest_taken_.push_back(HammingDistance(representative, words_.back()));
+    }
+    while (true) {
+      const auto far = std::max_element(nearest_taken_.begin(), nearest_taken_.end());
+      if (far == nearest_taken_.end() || *far < min_distance_) break;
+      const size_t taken = static_cast<size_t>(far - nearest_taken_.begin());
+      out->push_back(candidates_[taken]);
+      for (size_t i = 0; i < words_.size(); ++i) {
+        nearest_taken_[i] = std::min(nearest_taken_[i], HammingDistance(words_[taken], words_[i]));
+      }
+    }
+  }
+
+ private:
+  int min_distance_;
+  std::vector<OrbDescriptor> candidates_;
+  std::vector<DescriptorWords> words_;  // Of candidates_.
+  std::vector<int> nearest_taken_;
+};
+
+}  // namespace
+
+void MapPointIndex::TakeObservationDescriptors() {
+  if (options_.max_rows <= points_) return;
+  // Each point's candidates, flat: point r's in extra[begin[r], begin[r + 1]).
+  size_t observations = 0;
+  for (size_t r = 0; r < points_; ++r) observations += row_points_[r]->observations().size();
+  std::vector<OrbDescriptor> extra;
+  extra.reserve(observations);
+  std::vector<size_t> begin(points_ + 1, 0);
+  FarthestFirst farthest(options_.min_extra_distance);
+  size_t rounds = 0;
+  for (size_t r = 0; r < points_; ++r) {
+    farthest.Take(*row_points_[r], &extra);
+    begin[r + 1] = extra.size();
+    rounds = std::max(rounds, begin[r + 1] - begin[r]);
+  }
+  // Round k: every point's (k+1)-th, in point order, while the budget lasts.
+  const size_t rows = std::min(options_.max_rows, points_ + extra.size());
+  row_points_.reserve(rows);
+  descriptors_.reserve(rows);
+  for (size_t k = 0; k < rounds; ++k) {
+    for (size_t r = 0; r < points_ && row_points_.size() < rows; ++r) {
+      if (begin[r] + k >= begin[r + 1]) continue;
+      row_points_.push_back(row_points_[r]);
+      descriptors_.push_back(extra[begin[r] + k]);
+    }
   }
 }
 
@@ -108,14 +193,19 @@ void MapPointIndex::AllocateTables() {
   std::mt19937_64 rng(options_.seed);
   std::vector<int> all(8 * sizeof(OrbDescriptor));
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  // At most three quarters full (rows bound the keys): linear probing's
+  // misses, most of a search's probes, stay within a cache line or two.
   size_t capacity = 2;
-  while (capacity < 2 * descriptors_.size()) capacity *= 2;
+  while (3 * capacity < 4 * descriptors_.size()) capacity *= 2;
   tables_.resize(static_cast<size_t>(options_.tables));
   for (Table& table : tables_) {
     std::shuffle(all.begin(), all.end(), rng);
     table.bits.assign(all.begin(), all.begin() + options_.key_bits);
     table.slots.assign(capacity, {});
     table.rows.resize(descriptors_.size());
+    if (options_.key_bits <= kPresenceMaxBits) {
+      table.present.assign(((size_t{1} << options_.key_bits) + 63) / 64, 0);
+    }
   }
 }
 
@@ -138,28 +228,28 @@ void MapPointIndex::FillTable(Table* table_out) const {
     table.rows[i] = keyed[i].second;
     Table::Slot& slot = table.Insert(keyed[i].first);
     if (slot.count++ == 0) slot.offset = static_cast<uint32_t>(i);
+    if (!table.present.empty())
+      table.present[keyed[i].first >> 6] |= uint64_t{1} << (keyed[i].first & 63);
   }
 }
 
 std::vector<std::pair<uint32_t, uint32_t>> MapPointIndex::SortedByKey(const Table& table) const {
   const size_t n = descriptors_.size();
-  std::vector<uint32_t> keys(n);
-  for (size_t r = 0; r < n; ++r) keys[r] = table.Key(descriptors_[r]);
-  std::vector<std::pair<uint32_t, uint32_t>> keyed(n);
-  // Counting costs 2^bits counters: for fewer rows than a quarter of them
-  // (the kitchen's 5 600 points against 2^20) a comparison sort is cheaper.
-  const size_t counters = size_t{1} << std::min(options_.key_bits, kCountingSortMaxBits);
-  if (options_.key_bits > kCountingSortMaxBits || 4 * n < counters) {
-    for (size_t r = 0; r < n; ++r) keyed[r] = {keys[r], static_cast<uint32_t>(r)};
-    std::sort(keyed.begin(), keyed.end());
-    return keyed;
+  std::vector<std::pair<uint32_t, uint32_t>> keyed(n), scratch(n);
+  for (size_t r = 0; r < n; ++r) keyed[r] = {table.Key(descriptors_[r]), static_cast<uint32_t>(r)};
+  // A least-significant-digit radix sort, kRadixBits of the key a pass: as
+  // stable as counting, so rows stay in increasing order within a key (the
+  // pairs' order), in time linear in the rows whatever their number (a
+  // comparison sort costs n log n, one counting pass 2^key_bits counters).
+  constexpr int kRadixBits = 11;
+  constexpr uint32_t kDigits = 1u << kRadixBits;
+  for (int shift = 0; shift < options_.key_bits; shift += kRadixBits) {
+    std::vector<uint32_t> start(kDigits + 1, 0);
+    for (const auto& [key, row] : keyed) ++start[((key >> shift) & (kDigits - 1)) + 1];
+    for (size_t d = 1; d <= kDigits; ++d) start[d] += start[d - 1];
+    for (const auto& pair : keyed) scratch[start[(pair.first >> shift) & (kDigits - 1)]++] = pair;
+    keyed.swap(scratch);
   }
-  // A counting sort by key: rows stay in increasing order within a key, as
-  // the pairs' sort above orders them, in time linear in rows and keys.
-  std::vector<uint32_t> start((size_t{1} << options_.key_bits) + 1, 0);
-  for (const uint32_t key : keys) ++start[key + 1];
-  for (size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
-  for (size_t r = 0; r < n; ++r) keyed[start[keys[r]]++] = {keys[r], static_cast<uint32_t>(r)};
   return keyed;
 }
 
@@ -171,7 +261,7 @@ bool MapPointIndex::IsCurrent(const Map& map) const {
 std::vector<DescriptorNeighbours> MapPointIndex::Search(
     const std::vector<OrbDescriptor>& queries) const {
   std::vector<DescriptorNeighbours> out(queries.size());
-  if (points_.empty()) return out;
+  if (row_points_.empty()) return out;
   // Queries are independent: chunks of them, on the pool's threads.
   constexpr size_t kChunk = 64;
   const size_t chunks = (queries.size() + kChunk - 1) / kChunk;
@@ -210,6 +300,7 @@ void MapPointIndex::CandidateRows(const OrbDescriptor& query, std::vector<Probe>
     const uint32_t key = table.Key(query);
     for (int flip = -1; flip < flips; ++flip) {
       const uint32_t probe = flip < 0 ? key : key ^ (1u << flip);
+      if (!table.MayHave(probe)) continue;
       probes->push_back({&table, probe});
       __builtin_prefetch(&table.slots[table.Home(probe)]);
     }
@@ -229,11 +320,12 @@ void MapPointIndex::CandidateRows(const OrbDescriptor& query, std::vector<Probe>
 // The rows are compared in the order a plain walk visits them (table, probe,
 // row), so ties resolve alike. A row found again (in another table) is
 // compared again, from the cache: cheaper than a table of rows seen, which
-// costs a miss of its own per row.
+// costs a miss of its own per row. A point's other rows (its observations'
+// descriptors) bring it nearer, never make it both first and second.
 void MapPointIndex::KeepTwoNearest(const DescriptorWords& query, const std::vector<uint32_t>& rows,
                                    DescriptorNeighbours* n) const {
   constexpr uint32_t kNoRow = UINT32_MAX;
-  // Rows of the two nearest so far (a row found again must not be both).
+  // Rows of the two nearest so far (the rows that gave their distances).
   uint32_t first_row = kNoRow, second_row = kNoRow;
   for (const uint32_t row : rows) {
     if (row == first_row || row == second_row) continue;
@@ -243,19 +335,23 @@ void MapPointIndex::KeepTwoNearest(const DescriptorWords& query, const std::vect
       continue;
     }
     // Only now the point itself (a cache miss per row on a big map).
-    MapPoint* p = points_[row];
+    MapPoint* p = row_points_[row];
     if (p->bad()) continue;
-    if (first) {
-      second_row = first_row;
-      first_row = row;
-      n->second = n->first;
-      n->second_distance = n->first_distance;
-      n->first = p;
-      n->first_distance = d;
+    if (p == n->first) {
+      if (d < n->first_distance) std::tie(first_row, n->first_distance) = std::tie(row, d);
+    } else if (p == n->second) {
+      if (d < n->second_distance) std::tie(second_row, n->second_distance) = std::tie(row, d);
+      if (n->second_distance < n->first_distance) {
+        std::swap(first_row, second_row);
+        std::swap(n->first, n->second);
+        std::swap(n->first_distance, n->second_distance);
+      }
+    } else if (first) {
+      std::tie(second_row, n->second, n->second_distance) =
+          std::tie(first_row, n->first, n->first_distance);
+      std::tie(first_row, n->first, n->first_distance) = std::make_tuple(row, p, d);
     } else {
-      second_row = row;
-      n->second = p;
-      n->second_distance = d;
+      std::tie(second_row, n->second, n->second_distance) = std::make_tuple(row, p, d);
     }
   }
 }

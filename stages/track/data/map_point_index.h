@@ -9,6 +9,13 @@
 // build differed, and so did the matches and relocalizations of a batch run.
 // Here the bits come from `seed`.
 //
+// Each point is indexed by its representative descriptor (the one
+// ORB-SLAM2 matches by) and, within a budget of rows, by the descriptors of
+// the keyframes observing it: ORB descriptors change with the viewpoint,
+// and a frame seen from elsewhere than the median view is often far from the
+// representative and near one keyframe's descriptor (Active Search indexes
+// every observation's descriptor for the same reason). See `max_rows`.
+//
 // The index is a snapshot: Build() takes the map's good points, and
 // IsCurrent() tells whether the map has created or removed points since
 // (points culled since are skipped at search time; a descriptor that changed
@@ -48,6 +55,20 @@ struct MapPointIndexOptions {
   // the 10k-keyframe map (557 000 points) one frame's took 23 ms on one
   // thread; a relocalizing tracker has nothing else to do meanwhile.
   int threads = 2;
+  // Rows (indexed descriptors) at most, beyond one per point: every good
+  // point's representative descriptor first; then, while the rows stay
+  // within `max_rows`, a round at a time, each point's next observation
+  // descriptor (the one farthest in Hamming distance from those it has
+  // already, at least `min_extra_distance` bits). A map whose points reach
+  // the budget is indexed by representatives alone. 2^19 rows keep the index
+  // within the size and build time of a 10k-keyframe map's representatives
+  // (557 000 points: 0.23-0.25 s beside tracking, ~200 MB): on the kitchen's
+  // map (5 395 points, 36 675 descriptors, 30-38 ms) cold starts from later
+  // frames relocalized at once 45 of 50 times against 38 with
+  // representatives alone (docs/track.md, "Direct relocalization").
+  // 0: representatives alone.
+  size_t max_rows = size_t{1} << 19;
+  int min_extra_distance = 1;  // Bits; 1: any different descriptor.
   // False, with the reason in `why`, when a field is out of range.
   bool Check(std::string* why) const;
 };
@@ -81,10 +102,14 @@ class MapPointIndex {
   void Build(const std::vector<MapPoint*>& points);
   // Whether `map` has the points it had at the last Build(map).
   bool IsCurrent(const Map& map) const;
-  size_t size() const { return points_.size(); }
+  // Indexed points, and indexed descriptors (rows: size() or more).
+  size_t size() const { return points_; }
+  size_t rows() const { return row_points_.size(); }
 
   // The two nearest indexed points of each of `queries` (approximate: LSH
-  // may miss the true nearest). Points culled since the build are skipped.
+  // may miss the true nearest), two different points, each at the distance
+  // of its nearest indexed descriptor. Points culled since the build are
+  // skipped.
   std::vector<DescriptorNeighbours> Search(const std::vector<OrbDescriptor>& queries) const;
 
  private:
@@ -94,8 +119,12 @@ class MapPointIndex {
     const Table* table;
     uint32_t key;
   };
-  // The good ones of `points` and their descriptors as the rows (tables cleared).
+  // The good ones of `points` and their descriptors as the rows (tables
+  // cleared), then their observations' descriptors within the budget.
   void TakePoints(const std::vector<MapPoint*>& points);
+  // Rows for the observations' descriptors of the first `points_` rows'
+  // points, a round at a time, up to options_.max_rows rows in all.
+  void TakeObservationDescriptors();
   // Search() of queries [begin, end) into out[begin, end).
   void SearchRange(const std::vector<OrbDescriptor>& queries, size_t begin, size_t end,
                    std::vector<DescriptorNeighbours>* out) const;
@@ -106,8 +135,8 @@ class MapPointIndex {
   // The two nearest good points among `rows` into `n` (initially empty).
   void KeepTwoNearest(const DescriptorWords& query, const std::vector<uint32_t>& rows,
                       DescriptorNeighbours* n) const;
-  // Keys of up to this many bits may be sorted by counting (2^bits counters).
-  static constexpr int kCountingSortMaxBits = 24;
+  // Keys of up to this many bits have a presence bitmap (2^bits bits a table).
+  static constexpr int kPresenceMaxBits = 22;
   // Each table's key bits drawn, its slots (empty) and rows allocated.
   void AllocateTables();
   // The slots and rows of `table` (allocated, its bits drawn) from descriptors_.
@@ -115,8 +144,9 @@ class MapPointIndex {
   // (key, row) of every row in `table`, sorted.
   std::vector<std::pair<uint32_t, uint32_t>> SortedByKey(const Table& table) const;
   MapPointIndexOptions options_;
-  std::vector<MapPoint*> points_;           // One row per point.
-  std::vector<OrbDescriptor> descriptors_;  // Parallel to points_.
+  size_t points_ = 0;                       // Rows [0, points_): one per point.
+  std::vector<MapPoint*> row_points_;       // The point of each row.
+  std::vector<OrbDescriptor> descriptors_;  // Parallel to row_points_.
   std::vector<Table> tables_;
   std::unique_ptr<WorkerPool> pool_;  // With options_.threads > 1, from the first build.
   // The map's state at the last build: points created and points in the map.

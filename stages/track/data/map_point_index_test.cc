@@ -5,6 +5,7 @@
 #include <random>
 #include <thread>
 
+#include "stages/track/data/keyframe.h"
 #include "stages/track/data/map.h"
 #include "stages/track/test_scene.h"
 
@@ -166,6 +167,126 @@ TEST(MapPointIndexTest, AnEmptyIndexFindsNothing) {
   EXPECT_EQ(found.front().first, nullptr);
 }
 
+// Points seen by three keyframes each, each keyframe with its own random
+// descriptor of a point (three views of one corner, ~128 bits apart), the
+// representative the first keyframe's.
+struct ThreeViews {
+  Map map;
+  std::vector<MapPoint*> points;
+  std::vector<KeyFrame*> keyframes;
+};
+void MakeThreeViews(ThreeViews* s, int n, std::mt19937& rng) {
+  const SensorModel sensor = testing::TestSensor();
+  for (int k = 0; k < 3; ++k) {
+    s->keyframes.push_back(testing::MakeGridKeyFrame(&s->map, sensor, n, Rigid3d(), rng));
+  }
+  for (int i = 0; i < n; ++i) {
+    const auto index = static_cast<uint32_t>(i);
+    MapPoint* p = testing::MakeObservedPoint(&s->map, s->keyframes, {index, index, index});
+    p->SetDescriptor(s->keyframes[0]->features().descriptors[index]);
+    s->points.push_back(p);
+  }
+}
+
+// A query near a point's second view is ~128 bits from its representative:
+// beyond a good match (50); the point's observation descriptors find it.
+TEST(MapPointIndexTest, ObservationDescriptorsFindAPointFromAnotherView) {
+  std::mt19937 rng(5);
+  ThreeViews s;
+  MakeThreeViews(&s, 500, rng);
+  std::vector<OrbDescriptor> queries;
+  for (int i = 0; i < 500; ++i) {
+    queries.push_back(FlipBits(s.keyframes[1]->features().descriptors[i], 8, rng));
+  }
+  MapPointIndexOptions representatives;
+  representatives.max_rows = 0;
+  for (const MapPointIndexOptions& o : {MapPointIndexOptions{}, representatives}) {
+    MapPointIndex index(o);
+    index.Build(s.map);
+    EXPECT_EQ(index.size(), 500u);
+    const std::vector<DescriptorNeighbours> found = index.Search(queries);
+    int hits = 0;
+    for (size_t q = 0; q < found.size(); ++q) {
+      if (found[q].first == s.points[q] && found[q].first_distance <= 8) ++hits;
+      // Two different points, the first at its nearest descriptor's distance.
+      if (found[q].second != nullptr) {
+        EXPECT_NE(found[q].first, found[q].second);
+      }
+      EXPECT_LE(found[q].first_distance, found[q].second_distance);
+    }
+    if (o.max_rows == 0) {
+      EXPECT_EQ(index.rows(), 500u);
+      EXPECT_EQ(hits, 0);
+    } else {
+      EXPECT_EQ(index.rows(), 1500u);
+      EXPECT_GE(hits, 475);
+    }
+  }
+}
+
+// A query near two descriptors of one point finds the point once: the
+// second nearest is another point or none.
+TEST(MapPointIndexTest, APointFoundByTwoOfItsDescriptorsIsNotItsOwnSecond) {
+  std::mt19937 rng(7);
+  ThreeViews s;
+  MakeThreeViews(&s, 200, rng);
+  std::vector<OrbDescriptor> queries;
+  for (int i = 0; i < 200; ++i) {
+    // The representative 12 bits from the first view's descriptor.
+    s.points[i]->SetDescriptor(FlipBits(s.keyframes[0]->features().descriptors[i], 12, rng));
+    queries.push_back(FlipBits(s.points[i]->descriptor(), 4, rng));
+  }
+  MapPointIndex index;
+  index.Build(s.map);
+  const std::vector<DescriptorNeighbours> found = index.Search(queries);
+  int hits = 0;
+  for (int i = 0; i < 200; ++i) {
+    EXPECT_NE(found[i].second, s.points[i]) << i;
+    if (found[i].first != s.points[i]) continue;
+    ++hits;
+    EXPECT_LE(found[i].first_distance, 4) << i;
+  }
+  EXPECT_GE(hits, 190);
+}
+
+// The budget: representatives first, then a round of second descriptors
+// (point order) until `max_rows`; a point's view within min_extra_distance
+// of those it has adds no row.
+TEST(MapPointIndexTest, ObservationDescriptorsStayWithinTheBudget) {
+  std::mt19937 rng(6);
+  ThreeViews s;
+  MakeThreeViews(&s, 100, rng);
+  MapPointIndexOptions o;
+  o.max_rows = 150;
+  MapPointIndex index(o);
+  index.Build(s.map);
+  EXPECT_EQ(index.rows(), 150u);
+  // Points 0-49 have a second descriptor, 50-99 none.
+  std::vector<OrbDescriptor> queries;
+  for (int i = 0; i < 100; ++i) {
+    const KeyFrame& kf = *s.keyframes[1];
+    queries.push_back(kf.features().descriptors[i]);
+  }
+  const std::vector<DescriptorNeighbours> found = index.Search(queries);
+  for (int i = 0; i < 100; ++i) {
+    // Exactly one of the second and third views was taken (the farther).
+    if (i < 50 && found[i].first == s.points[i] && found[i].first_distance == 0) continue;
+    if (i < 50) {
+      const std::vector<DescriptorNeighbours> third =
+          index.Search({s.keyframes[2]->features().descriptors[i]});
+      EXPECT_EQ(third[0].first, s.points[i]) << i;
+      EXPECT_EQ(third[0].first_distance, 0) << i;
+    } else {
+      EXPECT_GT(found[i].first_distance, 0) << i;
+    }
+  }
+  o.max_rows = 1000;
+  o.min_extra_distance = 256;
+  MapPointIndex far_only(o);
+  far_only.Build(s.map);
+  EXPECT_EQ(far_only.rows(), 100u);
+}
+
 TEST(MapPointIndexTest, OptionsOutOfRangeAreNamed) {
   std::string why;
   EXPECT_TRUE(MapPointIndexOptions{}.Check(&why));
@@ -177,6 +298,10 @@ TEST(MapPointIndexTest, OptionsOutOfRangeAreNamed) {
   o.threads = 0;
   EXPECT_FALSE(o.Check(&why));
   EXPECT_EQ(why, "threads = 0; must be in [1, 256]");
+  o = {};
+  o.min_extra_distance = 0;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_EQ(why, "min_extra_distance = 0; must be in [1, 256]");
 }
 
 }  // namespace

@@ -320,8 +320,8 @@ double Relocalizer::PrepareIndex() {
   return MillisecondsSince(start);
 }
 
-KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves,
-                                  RelocalizationAttempt* attempt) {
+KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves, RelocalizationAttempt* attempt,
+                                  bool has_pose) {
   RelocalizationAttempt local;
   RelocalizationAttempt* a = attempt != nullptr ? attempt : &local;
   *a = RelocalizationAttempt{};
@@ -335,7 +335,9 @@ KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves,
       return kf;
     }
   }
-  if (options_.method != RelocalizationMethod::kBow) {
+  const bool direct = options_.method == RelocalizationMethod::kDirect ||
+                      (options_.method == RelocalizationMethod::kBowDirect && !has_pose);
+  if (direct) {
     if (KeyFrame* kf = RelocalizeDirect(frame, solves, a)) {
       a->stage = "direct";
       return kf;

@@ -39,7 +39,12 @@
 // the pose verified against their local map.
 //
 // `method` picks the stages: bow (ORB-SLAM2), direct, or bow+direct (the
-// direct stage when the BoW stage finds no pose).
+// direct stage when the BoW stage finds no pose). A frame that has a pose of
+// its own (localization mode's visual odometry, which tries to relocalize on
+// every frame and lets a relocalization win) gets the BoW stage alone under
+// bow+direct: the direct stage is for frames with no pose, and from views
+// far from the mapped ones its pose is less accurate than visual odometry's
+// (docs/track.md, "Direct relocalization").
 //
 // Thread-safety: the caller holds Map::mutex().
 #pragma once
@@ -181,9 +186,10 @@ class Relocalizer {
   // only) and returns the keyframe that gave the pose; otherwise returns
   // nullptr and leaves the frame's map points empty. `solves` (may be null)
   // counts the pose optimizations; `attempt` (may be null) says what
-  // happened (all but ms).
+  // happened (all but ms). `has_pose`: the frame is tracked otherwise (no
+  // direct stage after the BoW stage).
   KeyFrame* Relocalize(Frame* frame, SolveCounts* solves = nullptr,
-                       RelocalizationAttempt* attempt = nullptr);
+                       RelocalizationAttempt* attempt = nullptr, bool has_pose = false);
   // Builds the direct stage's map-point index now, unless the method has no
   // direct stage or it is current (waiting first for a build started by
   // PrepareIndexInBackground); returns the ms this call spent waiting and

@@ -187,6 +187,15 @@ TEST_F(RelocalizerTest, TheDirectStageFindsWhatTheShortlistMisses) {
   Frame again = QueryFrame(scene_, T_true);
   ASSERT_NE(both.Relocalize(&again, nullptr, &attempt), nullptr);
   EXPECT_EQ(attempt.index_ms, 0);
+
+  // A frame with a pose of its own (visual odometry) gets the BoW stage
+  // alone under bow+direct; the direct method keeps its one stage.
+  Frame tracked = QueryFrame(scene_, T_true);
+  EXPECT_EQ(both.Relocalize(&tracked, nullptr, &attempt, true), nullptr);
+  EXPECT_EQ(attempt.direct_queries, 0);
+  Relocalizer direct(sensor_, empty, map_, WithMethod(RelocalizationMethod::kDirect));
+  EXPECT_NE(direct.Relocalize(&tracked, nullptr, &attempt, true), nullptr);
+  EXPECT_EQ(attempt.stage, "direct");
 }
 
 // A map just loaded: the index built in the background gives the direct

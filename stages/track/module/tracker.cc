@@ -270,7 +270,7 @@ bool Tracker::TrackLocalizationOnly() {
     motion_outliers = current_.outlier;
     motion_pose = current_.T_cam_world();
   }
-  const bool ok_relocalized = Relocalize();
+  const bool ok_relocalized = Relocalize(ok_motion);
   if (ok_motion && !ok_relocalized) {
     current_.SetPose(motion_pose);
     current_.map_points = std::move(motion_points);
@@ -431,13 +431,13 @@ bool Tracker::TrackReferenceKeyFrame() {
   return DiscardOutliers() >= options_.min_pose_inliers;
 }
 
-bool Tracker::Relocalize() {
+bool Tracker::Relocalize(bool has_pose) {
   const auto start = SteadyClock::now();
   if (options_.relocalization.method != RelocalizationMethod::kDirect) {
     current_.ComputeBow(vocabulary_, options_.bow_levels_up);
   }
   RelocalizationAttempt attempt;
-  KeyFrame* keyframe = relocalizer_.Relocalize(&current_, &pose_solves_, &attempt);
+  KeyFrame* keyframe = relocalizer_.Relocalize(&current_, &pose_solves_, &attempt, has_pose);
   attempt.ms = MillisecondsSince(start);
   attempt.timestamp = current_.timestamp();
   relocalization_ms_.push_back(attempt.ms);

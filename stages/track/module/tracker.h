@@ -259,7 +259,8 @@ class Tracker {
   bool TrackLastFrameStill();
   // BoW matching against the reference keyframe from the last frame's pose.
   bool TrackReferenceKeyFrame();
-  bool Relocalize();
+  // `has_pose`: the frame is tracked by visual odometry (Relocalizer::Relocalize).
+  bool Relocalize(bool has_pose = false);
   bool TrackLocalMap();
   void UpdateLocalKeyFrames();
   void UpdateLocalPoints();
