@@ -132,8 +132,9 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
            rrslam::ParseRelocalizationMethod(name, &o->tracker.relocalization.method);
          },
          "Relocalization stages: bow (ORB-SLAM2: keyframe shortlist by bag of words), direct "
-         "(frame descriptors against every map point) or bow+direct (direct when bow finds no "
-         "pose)")
+         "(frame descriptors against every map point's and its keyframes' descriptors) or "
+         "bow+direct (direct when bow finds no pose and the frame has none: a frame tracked by "
+         "visual odometry in localization mode checks by bow alone)")
       ->check(CLI::IsMember(rrslam::RelocalizationMethodNames()))
       ->default_str(rrslam::ToString(o->tracker.relocalization.method));
   app.add_option("--relocalization-covisible", o->tracker.relocalization.bow_covisible,

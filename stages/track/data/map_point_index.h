@@ -55,9 +55,9 @@ struct MapPointIndexOptions {
   // the 10k-keyframe map (557 000 points) one frame's took 23 ms on one
   // thread; a relocalizing tracker has nothing else to do meanwhile.
   int threads = 2;
-  // Rows (indexed descriptors) at most, beyond one per point: every good
-  // point's representative descriptor first; then, while the rows stay
-  // within `max_rows`, a round at a time, each point's next observation
+  // The most rows (indexed descriptors), unless the points alone are more:
+  // every good point's representative descriptor first; then, while the
+  // rows stay within `max_rows`, a round at a time, each point's next observation
   // descriptor (the one farthest in Hamming distance from those it has
   // already, at least `min_extra_distance` bits). A map whose points reach
   // the budget is indexed by representatives alone. 2^19 rows keep the index
