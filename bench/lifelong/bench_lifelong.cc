@@ -541,6 +541,9 @@ int main(int argc, char** argv) {
     }
   }
   if (!o.synth_vocab.empty() && !MeasureAtlas(o, &report)) failed = true;
+  // A part whose runs failed left its figures out: the summary must say so.
+  report.Add("runs", {"parts whose runs failed (their figures missing)", failed ? 1.0 : 0.0, "",
+                      "0", !failed});
   rrslam::bench::WriteGoalResults(
       o.out_prefix, "bench-lifelong: maps kept over many sessions, against the goals of issue 31",
       o.command, o.machine, report);
