@@ -42,6 +42,7 @@
 // PREFIX-memory.png and (with --track) PREFIX-track.png, PREFIX-global-ba.png
 // and PREFIX-global-ba-tracking.png.
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numeric>
@@ -61,6 +62,8 @@
 #include "stages/eval/ate.h"
 #include "stages/mapstore/map_compose.h"
 #include "stages/mapstore/map_file.h"
+#include "stages/synth/building.h"
+#include "stages/synth/synth.h"
 #include "stages/vocab/vocabulary.h"
 
 namespace {
@@ -547,10 +550,12 @@ void MeasureRevisits(const Options& o, Report* report) {
 // whole tours, the second and later revisit the first's rooms: the
 // keyframes each tour leaves (AddKeyframesByPass).
 void MeasureBuilding(const Options& o, Report* report) {
-  constexpr int kTourFrames = 6675;  // 222.5 s at 30 Hz (synth/building.h).
+  // One tour's frames as rrslam-synth renders it (its default frame rate).
+  const int tour_frames = static_cast<int>(
+      std::lround(rrslam::synth::BuildingTour::Get().duration() * rrslam::SynthOptions{}.fps));
   const std::string frames = std::to_string(o.building_frames);
   const std::string s = "building: rrslam-synth --scene building --trajectory tour, " + frames +
-                        " frames (one tour: " + std::to_string(kTourFrames) + ")";
+                        " frames (one tour: " + std::to_string(tour_frames) + ")";
   const fs::path sequence = o.work / ("building-" + frames);
   if (!fs::exists(sequence / "rgb.txt")) {
     RunChild({o.synth.string(), "--quiet", "--out", sequence.string(), "--scene", "building",
@@ -572,8 +577,8 @@ void MeasureBuilding(const Options& o, Report* report) {
                {"tracked", "lost", "keyframes", "keyframes_created", "keyframes_culled",
                 "map_points", "loop_closures"},
                s, report);
-  const int tours = o.building_frames / kTourFrames;
-  if (tours >= 2 && o.building_frames % kTourFrames == 0) {
+  const int tours = o.building_frames / tour_frames;
+  if (tours >= 2 && o.building_frames % tour_frames == 0) {
     AddKeyframesByPass(sequence, out, tours, s, report);
   }
   const double minutes = o.building_frames / 30.0 / 60.0;
