@@ -599,6 +599,20 @@ TEST_F(Validate, KeyframePointExists) {
              " has map point 999999, which is not in the map"));
 }
 
+// Ids the lookup's bitmap (one bit per id below next_map_point_id, in words
+// of 64) holds no bit for: the first id of the word after its last, and a
+// gap below the next id.
+TEST_F(Validate, KeyframePointBeyondTheIdsIsNotInTheMap) {
+  const auto [i, k] = Observed();
+  const uint64_t past = (map_.next_map_point_id + 63) / 64 * 64;
+  Kf(i).map_point_ids[k] = past;
+  Expect(Cat("keyframe ", Kf(i).id, " keypoint ", k, " has map point ", past,
+             ", which is not in the map"));
+  map_.next_map_point_id = past + 1;
+  Expect(Cat("keyframe ", Kf(i).id, " keypoint ", k, " has map point ", past,
+             ", which is not in the map"));
+}
+
 TEST_F(Validate, KeyframePointListsObservationBack) {
   // A keypoint without a map point is given a point that does not list it.
   const size_t i = Observed().first;

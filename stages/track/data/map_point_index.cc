@@ -1,6 +1,7 @@
 #include "stages/track/data/map_point_index.h"
 
 #include <algorithm>
+#include <array>
 #include <random>
 #include <tuple>
 
@@ -14,7 +15,9 @@ namespace rrslam {
 // One hash table: the key of a descriptor is `bits` of its 256 bits; the
 // rows of each key stored contiguously (rows[offset .. offset + count)),
 // found through an open-addressing table of the keys (linear probing, at
-// most half full).
+// most three quarters full). A key's home slot is the top bits of its mix,
+// a bijection of the key's bits, so that rows sorted by mix fill the slots
+// in order (FillTable: a pass through memory instead of a miss per key).
 struct MapPointIndex::Table {
   struct Slot {
     uint32_t key = 0;
@@ -22,7 +25,13 @@ struct MapPointIndex::Table {
     uint32_t count = 0;  // 0: empty.
   };
   std::vector<int> bits;
-  std::vector<Slot> slots;  // A power of two.
+  // Key() a byte at a time: the descriptor bytes holding key bits, and for
+  // each of them the key bits of its 256 values.
+  std::vector<int> key_bytes;
+  std::vector<std::array<uint32_t, 256>> key_of_byte;
+  uint32_t key_mask = 0;    // The low `bits.size()` bits.
+  int home_shift = 0;       // bits.size() - log2(slots.size()).
+  std::vector<Slot> slots;  // A power of two, at most 2^bits.size().
   std::vector<uint32_t> rows;
   // One bit per possible key, set for the keys in `slots` (keys of up to
   // kPresenceMaxBits; empty for longer ones): most of a search's probes are
@@ -30,18 +39,48 @@ struct MapPointIndex::Table {
   // the cache instead of by a miss into `slots`.
   std::vector<uint64_t> present;
 
+  // Odd, so that multiplying by it permutes the keys modulo 2^bits; and its
+  // inverse modulo 2^32.
+  static constexpr uint32_t kMix = 0x9E3779B1u;
+  static constexpr uint32_t kUnmix = [] {
+    uint32_t inverse = kMix;  // Newton's iteration doubles the correct bits.
+    for (int i = 0; i < 5; ++i) inverse *= 2u - kMix * inverse;
+    return inverse;
+  }();
+
+  // `bits` drawn: the byte tables, the mask; `capacity` slots (a power of
+  // two, at most 2^bits) allocated empty.
+  void Prepare(size_t capacity) {
+    key_mask = bits.size() >= 32 ? ~0u : (1u << bits.size()) - 1;
+    key_bytes.clear();
+    key_of_byte.clear();
+    for (size_t b = 0; b < bits.size(); ++b) {
+      const int byte = bits[b] >> 3;
+      auto it = std::find(key_bytes.begin(), key_bytes.end(), byte);
+      if (it == key_bytes.end()) {
+        key_bytes.push_back(byte);
+        key_of_byte.emplace_back().fill(0);
+        it = key_bytes.end() - 1;
+      }
+      std::array<uint32_t, 256>& of = key_of_byte[static_cast<size_t>(it - key_bytes.begin())];
+      for (uint32_t v = 0; v < 256; ++v) of[v] |= ((v >> (bits[b] & 7)) & 1u) << b;
+    }
+    slots.assign(capacity, {});
+    home_shift = static_cast<int>(bits.size());
+    for (size_t c = capacity; c > 1; c >>= 1) --home_shift;
+  }
   bool MayHave(uint32_t key) const {
     return present.empty() || (present[key >> 6] >> (key & 63) & 1) != 0;
   }
-
+  // Bit b of the key is bit bits[b] of `d`.
   uint32_t Key(const OrbDescriptor& d) const {
     uint32_t key = 0;
-    for (size_t b = 0; b < bits.size(); ++b) key |= static_cast<uint32_t>(d.Bit(bits[b])) << b;
+    for (size_t j = 0; j < key_bytes.size(); ++j) key |= key_of_byte[j][d.bytes[key_bytes[j]]];
     return key;
   }
-  size_t Home(uint32_t key) const {
-    return (static_cast<uint64_t>(key) * 0x9E3779B97F4A7C15ull >> 32) & (slots.size() - 1);
-  }
+  uint32_t Mix(uint32_t key) const { return (key * kMix) & key_mask; }
+  uint32_t Unmix(uint32_t mixed) const { return (mixed * kUnmix) & key_mask; }
+  size_t Home(uint32_t key) const { return Mix(key) >> home_shift; }
   Slot& Insert(uint32_t key) {
     size_t i = Home(key);
     while (slots[i].count != 0 && slots[i].key != key) i = (i + 1) & (slots.size() - 1);
@@ -195,13 +234,15 @@ void MapPointIndex::AllocateTables() {
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
   // At most three quarters full (rows bound the keys): linear probing's
   // misses, most of a search's probes, stay within a cache line or two.
+  // No more slots than keys: a key's home is the top bits of its mix.
   size_t capacity = 2;
   while (3 * capacity < 4 * descriptors_.size()) capacity *= 2;
+  capacity = std::min<uint64_t>(capacity, uint64_t{1} << options_.key_bits);
   tables_.resize(static_cast<size_t>(options_.tables));
   for (Table& table : tables_) {
     std::shuffle(all.begin(), all.end(), rng);
     table.bits.assign(all.begin(), all.begin() + options_.key_bits);
-    table.slots.assign(capacity, {});
+    table.Prepare(capacity);
     table.rows.resize(descriptors_.size());
     if (options_.key_bits <= kPresenceMaxBits) {
       table.present.assign(((size_t{1} << options_.key_bits) + 63) / 64, 0);
@@ -222,21 +263,28 @@ void MapPointIndex::BuildTables() {
 
 void MapPointIndex::FillTable(Table* table_out) const {
   Table& table = *table_out;
-  // Rows sorted by key (then row), each key's rows one bucket.
-  const std::vector<std::pair<uint32_t, uint32_t>> keyed = SortedByKey(table);
-  for (size_t i = 0; i < keyed.size(); ++i) {
-    table.rows[i] = keyed[i].second;
-    Table::Slot& slot = table.Insert(keyed[i].first);
-    if (slot.count++ == 0) slot.offset = static_cast<uint32_t>(i);
-    if (!table.present.empty())
-      table.present[keyed[i].first >> 6] |= uint64_t{1} << (keyed[i].first & 63);
+  // Rows sorted by mixed key (then row), each key's rows one bucket, the
+  // buckets' slots in increasing order of their homes.
+  const std::vector<std::pair<uint32_t, uint32_t>> mixed = SortedByMixedKey(table);
+  for (size_t begin = 0, end = 0; begin < mixed.size(); begin = end) {
+    for (end = begin; end < mixed.size() && mixed[end].first == mixed[begin].first; ++end) {
+      table.rows[end] = mixed[end].second;
+    }
+    const uint32_t key = table.Unmix(mixed[begin].first);
+    Table::Slot& slot = table.Insert(key);
+    slot.offset = static_cast<uint32_t>(begin);
+    slot.count = static_cast<uint32_t>(end - begin);
+    if (!table.present.empty()) table.present[key >> 6] |= uint64_t{1} << (key & 63);
   }
 }
 
-std::vector<std::pair<uint32_t, uint32_t>> MapPointIndex::SortedByKey(const Table& table) const {
+std::vector<std::pair<uint32_t, uint32_t>> MapPointIndex::SortedByMixedKey(
+    const Table& table) const {
   const size_t n = descriptors_.size();
   std::vector<std::pair<uint32_t, uint32_t>> keyed(n), scratch(n);
-  for (size_t r = 0; r < n; ++r) keyed[r] = {table.Key(descriptors_[r]), static_cast<uint32_t>(r)};
+  for (size_t r = 0; r < n; ++r) {
+    keyed[r] = {table.Mix(table.Key(descriptors_[r])), static_cast<uint32_t>(r)};
+  }
   // A least-significant-digit radix sort, kRadixBits of the key a pass: as
   // stable as counting, so rows stay in increasing order within a key (the
   // pairs' order), in time linear in the rows whatever their number (a

@@ -62,7 +62,7 @@ struct MapPointIndexOptions {
   // already, at least `min_extra_distance` bits). A map whose points reach
   // the budget is indexed by representatives alone. 2^19 rows keep the index
   // within the size and build time of a 10k-keyframe map's representatives
-  // (557 000 points: 0.23-0.25 s beside tracking, ~200 MB): on the kitchen's
+  // (582 660 points: 0.14-0.15 s beside tracking, ~200 MB): on the kitchen's
   // map (5 395 points, 36 675 descriptors, 30-38 ms) cold starts from later
   // frames relocalized at once 45 of 50 times against 38 with
   // representatives alone (docs/track.md, "Direct relocalization").
@@ -141,8 +141,8 @@ class MapPointIndex {
   void AllocateTables();
   // The slots and rows of `table` (allocated, its bits drawn) from descriptors_.
   void FillTable(Table* table) const;
-  // (key, row) of every row in `table`, sorted.
-  std::vector<std::pair<uint32_t, uint32_t>> SortedByKey(const Table& table) const;
+  // (mixed key, row) of every row in `table`, sorted.
+  std::vector<std::pair<uint32_t, uint32_t>> SortedByMixedKey(const Table& table) const;
   MapPointIndexOptions options_;
   size_t points_ = 0;                       // Rows [0, points_): one per point.
   std::vector<MapPoint*> row_points_;       // The point of each row.

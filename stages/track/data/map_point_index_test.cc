@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <thread>
 
@@ -285,6 +286,47 @@ TEST(MapPointIndexTest, ObservationDescriptorsStayWithinTheBudget) {
   MapPointIndex far_only(o);
   far_only.Build(s.map);
   EXPECT_EQ(far_only.rows(), 100u);
+}
+
+// Keys of few bits: fewer possible keys than rows, so every key has a slot
+// of its own and the slots are full (3 of 4 keys of 2 bits probed per
+// table, each of 12 tables: a row is missed by all of them with odds of
+// 4^-12). The two nearest are then exact, as a scan of every point finds;
+// with 9 bits (512 keys, all present) the answers are real points at their
+// true distances, the nearest found for most queries.
+TEST(MapPointIndexTest, KeysOfFewBitsFillEverySlotAndAnswerAsAScan) {
+  std::mt19937 rng(11);
+  Map map;
+  const std::vector<MapPoint*> points = RandomPoints(&map, 2000, rng);
+  std::vector<OrbDescriptor> queries;
+  for (int q = 0; q < 200; ++q) queries.push_back(FlipBits(points[q * 7]->descriptor(), 30, rng));
+  for (const int bits : {2, 9}) {
+    MapPointIndexOptions o;
+    o.key_bits = bits;
+    MapPointIndex index(o);
+    index.Build(map);
+    const std::vector<DescriptorNeighbours> found = index.Search(queries);
+    int nearest = 0;
+    for (size_t q = 0; q < queries.size(); ++q) {
+      std::vector<int> d;
+      for (const MapPoint* p : points) {
+        d.push_back(HammingDistance(ToWords(queries[q]), ToWords(p->descriptor())));
+      }
+      std::sort(d.begin(), d.end());
+      ASSERT_NE(found[q].first, nullptr) << bits << " bits, query " << q;
+      ASSERT_NE(found[q].second, nullptr) << bits << " bits, query " << q;
+      EXPECT_EQ(found[q].first_distance,
+                HammingDistance(ToWords(queries[q]), ToWords(found[q].first->descriptor())));
+      EXPECT_EQ(found[q].second_distance,
+                HammingDistance(ToWords(queries[q]), ToWords(found[q].second->descriptor())));
+      if (bits == 2) {
+        EXPECT_EQ(found[q].first_distance, d[0]) << "query " << q;
+        EXPECT_EQ(found[q].second_distance, d[1]) << "query " << q;
+      }
+      nearest += found[q].first_distance == d[0];
+    }
+    EXPECT_GE(nearest, bits == 2 ? 200 : 150) << bits << " bits";
+  }
 }
 
 TEST(MapPointIndexTest, OptionsOutOfRangeAreNamed) {
