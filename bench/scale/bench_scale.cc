@@ -551,8 +551,9 @@ void MeasureRevisits(const Options& o, Report* report) {
 // keyframes each tour leaves (AddKeyframesByPass).
 void MeasureBuilding(const Options& o, Report* report) {
   // One tour's frames as rrslam-synth renders it (its default frame rate).
-  const int tour_frames = static_cast<int>(
-      std::lround(rrslam::synth::BuildingTour::Get().duration() * rrslam::SynthOptions{}.fps));
+  const double fps = rrslam::SynthOptions{}.fps;
+  const int tour_frames =
+      static_cast<int>(std::lround(rrslam::synth::BuildingTour::Get().duration() * fps));
   const std::string frames = std::to_string(o.building_frames);
   const std::string s = "building: rrslam-synth --scene building --trajectory tour, " + frames +
                         " frames (one tour: " + std::to_string(tour_frames) + ")";
@@ -581,7 +582,7 @@ void MeasureBuilding(const Options& o, Report* report) {
   if (tours >= 2 && o.building_frames % tour_frames == 0) {
     AddKeyframesByPass(sequence, out, tours, s, report);
   }
-  const double minutes = o.building_frames / 30.0 / 60.0;
+  const double minutes = o.building_frames / fps / 60.0;
   report->Add(s, {"keyframes per minute of camera time",
                   counts.at("keyframes").get<double>() / minutes, "", "-", true});
   report->Add(s, {"ATE RMSE", AteRmseCm(sequence, out), "cm", "-", true});

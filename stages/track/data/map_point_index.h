@@ -63,7 +63,7 @@ struct MapPointIndexOptions {
   // the budget is indexed by representatives alone. 2^19 rows keep the index
   // within the size and build time of a 10k-keyframe map's representatives
   // (582 660 points: 0.14-0.15 s beside tracking, ~200 MB): on the kitchen's
-  // map (5 395 points, 36 675 descriptors, 30-38 ms) cold starts from later
+  // map (5 395 points, 36 675 descriptors, built in 10-11 ms) cold starts from later
   // frames relocalized at once 45 of 50 times against 38 with
   // representatives alone (docs/track.md, "Direct relocalization").
   // 0: representatives alone.
