@@ -129,9 +129,9 @@ LoopStepWhileTracking MeasureLoopStepWhileTracking(const LoopStepWhileTrackingOp
   const Vocabulary vocabulary = Vocabulary::Load(o.vocab);
   // Loaded as rrslam-track --load-map loads it (track.cc: the same heap
   // preparation, which also sets glibc's thresholds for the whole process).
-  const HeapReservation heap = ReserveHeapForMap(o.map, 4, 1.75);
+  const HeapReservation heap = ReserveHeapForLoadMap(o.map);
   MapFileInfo info;
-  MapData data = ReadMapFile(o.map, &info, MapRecords::kCopied);
+  MapData data = ReadMapFile(o.map, &info);
   const int levels_up = data.bow_levels_up;
   const SensorModel sensor(settings, data.camera.width, data.camera.height);
   Map map;

@@ -924,18 +924,14 @@ void CheckCounts(const Sections& s, const MapCounts& c, const std::string& sourc
 
 // Where the parsed bytes are: a mapped file (`file`; null for bytes in
 // memory), prefaulted and released section by section, whose keypoints,
-// descriptors and map point ids the records view in place when `records`
-// says so.
+// descriptors and map point ids the records view in place.
 struct MappedSource {
   std::shared_ptr<const MappedFile> file;
-  MapRecords records = MapRecords::kCopied;
 
   // The keep-alive of the viewed arrays (null: they are copied).
-  std::shared_ptr<const void> ViewedFile() const {
-    return records == MapRecords::kViewed ? file : nullptr;
-  }
+  std::shared_ptr<const void> ViewedFile() const { return file; }
   bool Views(int section) const {
-    return file != nullptr && records == MapRecords::kViewed &&
+    return file != nullptr &&
            (section == kKeypoints || section == kDescriptors || section == kKfPoints);
   }
 };
@@ -1077,7 +1073,7 @@ MapData ParseMap(std::span<const uint8_t> file, const std::string& source, MapFi
   return ParseAll(file, source, info, {});
 }
 
-MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info, MapRecords records) {
+MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info) {
   RequireFile(path, "map file");
   {
     // The header first, from a mapping that reads only the pages it touches:
@@ -1086,7 +1082,7 @@ MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info, MapRec
     const MappedFile probe(path);
     ReadMapFileInfo(probe.bytes(), path.string());
   }
-  const MappedSource mapping{std::make_shared<const MappedFile>(path, /*populate=*/true), records};
+  const MappedSource mapping{std::make_shared<const MappedFile>(path, /*populate=*/true)};
   return ParseAll(mapping.file->bytes(), path.string(), info, mapping);
 }
 

@@ -60,20 +60,16 @@ MapFileInfo WriteMapFileAt(const std::filesystem::path& file, const MapData& map
 MapData ParseMap(std::span<const uint8_t> file, const std::string& source,
                  MapFileInfo* info = nullptr);
 
-// How a map read from a file holds its keyframes' keypoints, descriptors and
-// map point ids (70% of a file): kViewed, in the file's read-only mapping
-// (RecordArray, record_array.h), open until the last of them goes (rrslam
-// replaces map files by rename, AtomicOutput, never in place, so the mapped
-// bytes stay); kCopied, in memory of their own, for a reader that moves them
-// on (track's load: copied while parsing, on the heap ReserveHeapForMap
-// prefaults, its first pose came 0.5 s sooner at 10k keyframes than with
-// views copied later, docs/mapstore.md).
-enum class MapRecords { kViewed, kCopied };
-
-// Reads and parses `path`. Throws NoInputError when it is missing or is a
+// Reads and parses `path`. The keyframes' keypoints, descriptors and map
+// point ids (70% of a file) are not copied: they view the file's read-only
+// mapping (RecordArray, record_array.h), which stays open until the last of
+// them goes, so a reader can keep them (track keeps the descriptors in its
+// keyframes). rrslam replaces map files by rename (AtomicOutput), never in
+// place, so the mapped bytes stay as read; a program that truncates or
+// rewrites the file in place while they live changes them under the reader
+// (or ends it with SIGBUS). Throws NoInputError when it is missing or is a
 // folder, DataError as ParseMap.
-MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info = nullptr,
-                    MapRecords records = MapRecords::kViewed);
+MapData ReadMapFile(const std::filesystem::path& path, MapFileInfo* info = nullptr);
 
 // The calling thread's heap prepared for loading `path` (HeapReservation,
 // common/heap_reserve.h): `heap_factor` times the file's size reserved in

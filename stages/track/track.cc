@@ -551,12 +551,12 @@ class TrackSession {
   void LoadMap() {
     const auto map_start = SteadyClock::now();
     const std::string source = options_.load_map.string();
-    // The load's allocations (the file's records, then the live map: about
-    // twice the file's size) on this thread, in huge-page memory reserved
-    // for four times it, the part they use made resident meanwhile.
-    const HeapReservation heap = ReserveHeapForMap(options_.load_map, 4, 1.75);
+    // The load's allocations (the file's records, then the live map) on this
+    // thread, in prepared huge-page memory; the keyframes' descriptors stay
+    // in the file's mapping.
+    const HeapReservation heap = ReserveHeapForLoadMap(options_.load_map);
     MapFileInfo info;
-    MapData data = ReadMapFile(options_.load_map, &info, MapRecords::kCopied);
+    MapData data = ReadMapFile(options_.load_map, &info);
     CheckMapCompatible(data, camera_, vocabulary_, source);
     TrackStartup& startup = summary_.startup;
     startup.map_read_ms = MillisecondsSince(map_start);

@@ -40,7 +40,7 @@ void FrameFeatures::FeaturesInArea(const SensorModel& sensor, double x, double y
 
 std::shared_ptr<const FrameFeatures> BuildFrameFeatures(const SensorModel& sensor,
                                                         std::vector<Keypoint> keypoints,
-                                                        std::vector<OrbDescriptor> descriptors) {
+                                                        RecordArray<OrbDescriptor> descriptors) {
   auto features = std::make_shared<FrameFeatures>();
   const size_t n = keypoints.size();
   features->u_right.resize(n);

@@ -11,6 +11,7 @@
 
 #include "common/geometry.h"
 #include "common/orb_descriptor.h"
+#include "stages/mapstore/record_array.h"
 #include "stages/extract/features_file.h"
 #include "stages/track/data/sensor_model.h"
 #include "stages/vocab/vocabulary.h"
@@ -28,7 +29,9 @@ struct FrameFeatures {
   // Undistorted keypoints (Keypoint::undistorted is the ideal pixel used by
   // all geometry; Keypoint::depth is metres, 0 = none).
   std::vector<Keypoint> keypoints;
-  std::vector<OrbDescriptor> descriptors;  // Parallel to keypoints.
+  // Parallel to keypoints. A loaded map's keyframes view them in the map
+  // file's mapping (record_array.h; LoadMapData), others own them.
+  RecordArray<OrbDescriptor> descriptors;
   // Virtual right-image u of each keypoint, u - bf / depth, ideal pixels;
   // negative when the keypoint has no depth (ORB-SLAM2's mvuRight).
   std::vector<float> u_right;
@@ -55,7 +58,7 @@ struct FrameFeatures {
 // that are not finite or not positive count as no depth.
 std::shared_ptr<const FrameFeatures> BuildFrameFeatures(const SensorModel& sensor,
                                                         std::vector<Keypoint> keypoints,
-                                                        std::vector<OrbDescriptor> descriptors);
+                                                        RecordArray<OrbDescriptor> descriptors);
 
 // What a frame and a keyframe share: the image's features and timestamp, a
 // camera pose and the bag of words of its descriptors.

@@ -10,8 +10,10 @@
 // Thread-safety: the caller holds Map::mutex() or runs no other thread.
 #pragma once
 
+#include <filesystem>
 #include <string>
 
+#include "common/heap_reserve.h"
 #include "common/settings.h"
 #include "stages/mapstore/map_data.h"
 #include "stages/track/data/keyframe_database.h"
@@ -44,12 +46,22 @@ MapData ToMapData(const Map& map, const MapCamera& camera, const Vocabulary& voc
 void CheckMapCompatible(const MapData& data, const MapCamera& camera, const Vocabulary& vocabulary,
                         const std::string& source);
 
+// The calling thread's heap prepared for ReadMapFile(`path`) and then
+// LoadMapData on this thread (ReserveHeapForMap, map_file.h: huge-page
+// memory, made resident ahead of the load by a thread of its own). The
+// records and the live map take about 1.2x the file's size of fresh memory:
+// the keyframes' descriptors stay in the file's mapping, the rest is copied
+// once (measured at 10k keyframes: docs/mapstore.md). Keep it while the load
+// allocates.
+HeapReservation ReserveHeapForLoadMap(const std::filesystem::path& path);
+
 // Loads `data` (ValidateMapData-checked) into an empty `map` and `database`.
 // Keyframes keep their saved ids, poses, features, bags of words (feature
 // vectors are recomputed when `bow_levels_up` differs from the saved one),
 // connections, parents and loop edges; map points their ids, positions,
 // normals, distances, descriptors, counters and observations. `data` is
-// consumed (its arrays move into the map). Throws DataError naming `source`
+// consumed (its arrays move into the map; descriptors that view a map file,
+// ReadMapFile, stay views: the keyframes keep the file's mapping open). Throws DataError naming `source`
 // when `map` is not empty or a next id is above CheckMapNextIds' bound
 // (map_file.h: ids index the map's arrays).
 void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& vocabulary,

@@ -5,6 +5,7 @@
 #include <random>
 
 #include "common/errors.h"
+#include "common/testing.h"
 #include "stages/mapstore/map_compose.h"
 #include "stages/mapstore/map_file.h"
 #include "stages/track/test_scene.h"
@@ -155,6 +156,36 @@ TEST_F(MapIoTest, ABigMapRoundTripsByteIdentically) {
   LoadMapData(ParseMap(bytes, "big.rrm"), sensor_, vocabulary_, 1, &loaded, &database, "big.rrm");
   EXPECT_EQ(EncodeMap(Save(loaded)), bytes);
   EXPECT_EQ(loaded.num_map_points(), big.map_points.size());
+}
+
+// Loaded from a file, the keyframes keep their descriptors in the file's
+// mapping (no copy) and the map stays as read when a new map replaces the
+// file (rrslam saves by rename); saved again, it gives the file's bytes.
+TEST_F(MapIoTest, KeyframesLoadedFromAFileViewItsDescriptors) {
+  const rrslam::testing::TempDir dir;
+  const std::vector<uint8_t> bytes = EncodeMap(Save(map_));
+  WriteMapFile(dir / "map.rrm", Save(map_));
+  Map loaded;
+  KeyFrameDatabase database(vocabulary_);
+  {
+    const HeapReservation heap = ReserveHeapForLoadMap(dir / "map.rrm");
+    LoadMapData(ReadMapFile(dir / "map.rrm"), sensor_, vocabulary_, 1, &loaded, &database,
+                "map.rrm");
+  }
+  WriteMapFile(dir / "map.rrm", Save(Map()));
+  for (const KeyFrame* kf : loaded.KeyFrames()) {
+    EXPECT_TRUE(kf->features().descriptors.is_view());
+    const KeyFrame* original = map_.keyframe_by_id(kf->id());
+    ASSERT_NE(original, nullptr);
+    EXPECT_EQ(kf->features().descriptors, original->features().descriptors);
+  }
+  EXPECT_EQ(EncodeMap(Save(loaded)), bytes);
+  // From bytes in memory they are the frames' own.
+  Map parsed;
+  KeyFrameDatabase parsed_database(vocabulary_);
+  LoadMapData(ParseMap(bytes, "bytes"), sensor_, vocabulary_, 1, &parsed, &parsed_database,
+              "bytes");
+  EXPECT_FALSE(parsed.KeyFrames().front()->features().descriptors.is_view());
 }
 
 TEST_F(MapIoTest, FeatureVectorsAreRecomputedForAnotherGrouping) {
