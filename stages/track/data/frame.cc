@@ -19,12 +19,13 @@ void FrameFeatures::FeaturesInArea(const SensorModel& sensor, double x, double y
       std::min(SensorModel::kGridRows - 1,
                static_cast<int>(std::floor((y - b.min_y + r) * sensor.grid_inv_cell_height)));
   if (min_col > max_col || min_row > max_row) return;
+  const Grid& grid = GridFor(sensor);
   const bool check_levels = min_level > 0 || max_level >= 0;
   for (int row = min_row; row <= max_row; ++row) {
     for (int col = min_col; col <= max_col; ++col) {
       const int cell = row * SensorModel::kGridCols + col;
-      for (uint32_t k = grid_begin[cell]; k < grid_begin[cell + 1]; ++k) {
-        const uint32_t i = grid_indices[k];
+      for (uint32_t k = grid.begin[cell]; k < grid.begin[cell + 1]; ++k) {
+        const uint32_t i = grid.indices[k];
         const Keypoint& kp = keypoints[i];
         if (check_levels) {
           if (kp.octave < min_level) continue;
@@ -36,6 +37,30 @@ void FrameFeatures::FeaturesInArea(const SensorModel& sensor, double x, double y
       }
     }
   }
+}
+
+// The grid, on the first call: a counting sort of the keypoints into cells.
+const FrameFeatures::Grid& FrameFeatures::GridFor(const SensorModel& sensor) const {
+  std::call_once(grid_built_, [&] {
+    constexpr int kCells = SensorModel::kGridCols * SensorModel::kGridRows;
+    const size_t n = keypoints.size();
+    std::vector<int> cell_of(n, -1);
+    std::vector<uint32_t> count(kCells + 1, 0);
+    for (size_t i = 0; i < n; ++i) {
+      int col, row;
+      if (sensor.GridCell(keypoints[i].undistorted.x(), keypoints[i].undistorted.y(), &col, &row)) {
+        cell_of[i] = row * SensorModel::kGridCols + col;
+        ++count[cell_of[i] + 1];
+      }
+    }
+    for (int c = 0; c < kCells; ++c) count[c + 1] += count[c];
+    grid_.begin = count;
+    grid_.indices.resize(count[kCells]);
+    for (size_t i = 0; i < n; ++i) {
+      if (cell_of[i] >= 0) grid_.indices[count[cell_of[i]]++] = static_cast<uint32_t>(i);
+    }
+  });
+  return grid_;
 }
 
 std::shared_ptr<const FrameFeatures> BuildFrameFeatures(const SensorModel& sensor,
@@ -53,24 +78,6 @@ std::shared_ptr<const FrameFeatures> BuildFrameFeatures(const SensorModel& senso
     if (kp.octave >= sensor.pyramid.n_levels) kp.octave = uint8_t(sensor.pyramid.n_levels - 1);
     features->u_right[i] =
         kp.depth > 0 ? static_cast<float>(kp.undistorted.x() - sensor.bf / kp.depth) : -1.0f;
-  }
-
-  // Counting sort of the keypoints into grid cells.
-  constexpr int kCells = SensorModel::kGridCols * SensorModel::kGridRows;
-  std::vector<int> cell_of(n, -1);
-  std::vector<uint32_t> count(kCells + 1, 0);
-  for (size_t i = 0; i < n; ++i) {
-    int col, row;
-    if (sensor.GridCell(keypoints[i].undistorted.x(), keypoints[i].undistorted.y(), &col, &row)) {
-      cell_of[i] = row * SensorModel::kGridCols + col;
-      ++count[cell_of[i] + 1];
-    }
-  }
-  for (int c = 0; c < kCells; ++c) count[c + 1] += count[c];
-  features->grid_begin = count;
-  features->grid_indices.resize(count[kCells]);
-  for (size_t i = 0; i < n; ++i) {
-    if (cell_of[i] >= 0) features->grid_indices[count[cell_of[i]]++] = static_cast<uint32_t>(i);
   }
   features->keypoints = std::move(keypoints);
   features->descriptors = std::move(descriptors);

@@ -5,14 +5,15 @@
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <opencv2/core/mat.hpp>
 #include <span>
 #include <vector>
 
 #include "common/geometry.h"
 #include "common/orb_descriptor.h"
-#include "stages/mapstore/record_array.h"
 #include "stages/extract/features_file.h"
+#include "stages/mapstore/record_array.h"
 #include "stages/track/data/sensor_model.h"
 #include "stages/vocab/vocabulary.h"
 
@@ -22,9 +23,10 @@ class KeyFrame;
 class MapPoint;
 
 // Keypoints and descriptors of one image with the data derived from them
-// once: the virtual right coordinate from depth and the search grid.
-// Immutable once built (BuildFrameFeatures) and shared, never copied, between
-// a Frame and the KeyFrame made from it. Thread-safe (const).
+// once: the virtual right coordinate from depth and the search grid (built
+// on the first search). Immutable once built (BuildFrameFeatures) and
+// shared, never copied, between a Frame and the KeyFrame made from it.
+// Thread-safe (const; the grid's first build is once, under std::call_once).
 struct FrameFeatures {
   // Undistorted keypoints (Keypoint::undistorted is the ideal pixel used by
   // all geometry; Keypoint::depth is metres, 0 = none).
@@ -35,11 +37,6 @@ struct FrameFeatures {
   // Virtual right-image u of each keypoint, u - bf / depth, ideal pixels;
   // negative when the keypoint has no depth (ORB-SLAM2's mvuRight).
   std::vector<float> u_right;
-  // Grid cells in CSR layout: keypoints of cell (col, row) are
-  // grid_indices[grid_begin[c] .. grid_begin[c + 1]) with c = row * cols + col.
-  std::vector<uint32_t> grid_begin;
-  std::vector<uint32_t> grid_indices;
-
   size_t size() const { return keypoints.size(); }
   bool HasDepth(size_t i) const { return u_right[i] >= 0; }
   float Depth(size_t i) const { return keypoints[i].depth; }
@@ -49,8 +46,21 @@ struct FrameFeatures {
   // Appends to `out` the keypoints with |u - x| < r and |v - y| < r whose
   // octave lies in [min_level, max_level] (max_level < 0: no upper bound),
   // ordered by grid cell then index (ORB-SLAM2's GetFeaturesInArea).
+  // `sensor` is the one the features were built with (it lays out the grid).
   void FeaturesInArea(const SensorModel& sensor, double x, double y, double r, int min_level,
                       int max_level, std::vector<uint32_t>* out) const;
+
+ private:
+  // Grid cells in CSR layout: keypoints of cell (col, row) are
+  // indices[begin[c] .. begin[c + 1]) with c = row * cols + col. 16 kB for
+  // 1000 keypoints, built when first searched: most keyframes of a loaded
+  // map are never searched by area (localization searches the frame's).
+  struct Grid {
+    std::vector<uint32_t> begin, indices;
+  };
+  const Grid& GridFor(const SensorModel& sensor) const;
+  mutable std::once_flag grid_built_;
+  mutable Grid grid_;
 };
 
 // Builds the shared features of an image from keypoints whose `undistorted`
