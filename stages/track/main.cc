@@ -70,7 +70,8 @@ void BindTrackOptions(CLI::App& app, rrslam::TrackOptions* o) {
   app.add_option("--load-map", o->load_map,
                  "Start on this saved map (same vocabulary tree and camera settings): the first "
                  "frames relocalize in it, poses are in its world frame; mapping goes on in it "
-                 "unless --localization-only")
+                 "unless --localization-only. The file stays mapped while the run lasts: "
+                 "replace it by rename (as --save-map does), not in place")
       ->capture_default_str();
   app.add_option("--first-frame", o->first_frame,
                  "Start at this frame of the sequence (index from 0)")
