@@ -11,7 +11,9 @@
 # mapping per keyframe). Goals at 10k keyframes: load <= 1.5 s, peak memory
 # <= 2x the file, save <= 2 s, verify <= 1 s, first pose <= 2 s,
 # relocalization p95 <= 30 ms, tracking median <= 1.2x and local mapping
-# <= 1.5x the base map's. Then revisits: three laps of rrslam-synth's
+# <= 1.5x the base map's (measured by the same runs on the base map, each
+# just before the composed map's, so both see the machine of those minutes).
+# Then revisits: three laps of rrslam-synth's
 # standard room mapped in one run, and the base map's sequence's frames
 # 0-299 twice (bench/track/make_kidnapped.sh), each with the defaults
 # (revisit keyframes culled after the last frame), with --no-cull-revisits

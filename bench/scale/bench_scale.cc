@@ -114,6 +114,9 @@ struct ColdStarts {
   int tracked = 0, lost = 0, failed = 0;  // Frames; runs that did not exit 0.
   double local_mapping_ms = 0;            // Restore mapping: median per keyframe.
   int keyframes_created = 0;              // Added by that run (map.keyframes_added).
+  // The same runs on a reference map, each just before this map's (0: none).
+  std::vector<double> reference_tracking_median_ms;
+  double reference_local_mapping_ms = 0;
 };
 
 struct Curve {
@@ -238,11 +241,32 @@ std::optional<nlohmann::json> RunTrack(const Options& o, const fs::path& map, in
   return nlohmann::json::parse(in);
 }
 
+// Tracking's median per frame in a run.json.
+double TrackingMedianMs(const nlohmann::json& run) {
+  return run.at("timings").at("tracking").at("median_ms").get<double>();
+}
+
+// Local mapping's median per keyframe in a run.json.
+double LocalMappingMs(const nlohmann::json& run) {
+  return run.at("timings").at("local_mapping").at("median_ms").get<double>();
+}
+
 // `o.starts` cold starts of rrslam-track on `map` (localization only), and
 // one run mapping on it (restore mapping) from the first start's frame.
-ColdStarts RunColdStarts(const Options& o, const fs::path& map) {
+// With a `reference` map, each run is preceded by the same run on it, so
+// that tracking and local mapping compare with runs of the same minutes:
+// this machine's speed drifts by more than the goals' margins between the
+// sections of a bench-scale run.
+ColdStarts RunColdStarts(const Options& o, const fs::path& map,
+                         const fs::path& reference = fs::path()) {
   ColdStarts c;
+  double reference_peak_mb = 0;
   for (int i = 0; i < o.starts; ++i) {
+    if (!reference.empty()) {
+      const std::optional<nlohmann::json> r =
+          RunTrack(o, reference, o.first_frame + i * o.start_stride, true, &reference_peak_mb);
+      if (r) c.reference_tracking_median_ms.push_back(TrackingMedianMs(*r));
+    }
     double peak_mb = 0;
     const std::optional<nlohmann::json> r =
         RunTrack(o, map, o.first_frame + i * o.start_stride, true, &peak_mb);
@@ -255,7 +279,7 @@ ColdStarts RunColdStarts(const Options& o, const fs::path& map) {
       c.first_pose_s.push_back(startup.at("first_pose_ms").get<double>() / 1e3);
     }
     c.map_load_s.push_back(startup.at("map_load_ms").get<double>() / 1e3);
-    c.tracking_median_ms.push_back(r->at("timings").at("tracking").at("median_ms").get<double>());
+    c.tracking_median_ms.push_back(TrackingMedianMs(*r));
     // An attempt's own time: a first direct attempt may wait for the index
     // that the load started building (its index_ms), which the index's
     // build time reports.
@@ -268,9 +292,14 @@ ColdStarts RunColdStarts(const Options& o, const fs::path& map) {
     c.lost += r->at("counts").at("lost").get<int>();
     c.peak_mb.push_back(peak_mb);
   }
+  if (!reference.empty()) {
+    if (const auto r = RunTrack(o, reference, o.first_frame, false, &reference_peak_mb)) {
+      c.reference_local_mapping_ms = LocalMappingMs(*r);
+    }
+  }
   double peak_mb = 0;
   if (const std::optional<nlohmann::json> r = RunTrack(o, map, o.first_frame, false, &peak_mb)) {
-    c.local_mapping_ms = r->at("timings").at("local_mapping").at("median_ms").get<double>();
+    c.local_mapping_ms = LocalMappingMs(*r);
     c.keyframes_created = r->at("map").at("keyframes_added").get<int>();
   } else {
     ++c.failed;
@@ -279,10 +308,9 @@ ColdStarts RunColdStarts(const Options& o, const fs::path& map) {
 }
 
 // The cold starts' figures; goals at 10k keyframes (`big`), tracking and
-// local mapping against the base map's medians (`base_tracking_ms`,
-// `base_local_mapping_ms`; 0: this is the base map).
-void AddColdStarts(const ColdStarts& c, const std::string& s, bool big, double base_tracking_ms,
-                   double base_local_mapping_ms, Report* report, Row* row) {
+// local mapping against the base map's runs alternated with them
+// (c.reference_*; none on the base map itself).
+void AddColdStarts(const ColdStarts& c, const std::string& s, bool big, Report* report, Row* row) {
   const std::string n = std::to_string(c.map_load_s.size());
   const auto goal = [&](const std::string& text) { return big ? text : std::string("-"); };
   row->first_pose_s = c.first_pose_s.size() == c.map_load_s.size() ? Median(c.first_pose_s) : 0;
@@ -309,8 +337,10 @@ void AddColdStarts(const ColdStarts& c, const std::string& s, bool big, double b
                   "ms", "-", true});
   report->Add(s, {"tracking median per frame (median of the starts)", row->tracking_median_ms, "ms",
                   "-", true});
-  if (base_tracking_ms > 0) {
-    const double ratio = row->tracking_median_ms / base_tracking_ms;
+  if (!c.reference_tracking_median_ms.empty()) {
+    const double base_ms = Median(c.reference_tracking_median_ms);
+    report->Add(s, {"  the base map's, its starts alternated with these", base_ms, "ms", "-", true});
+    const double ratio = row->tracking_median_ms / base_ms;
     report->Add(s,
                 {"  against the base map's", ratio, "x", goal("<= 1.2 x"), !big || ratio <= 1.2});
   }
@@ -320,8 +350,10 @@ void AddColdStarts(const ColdStarts& c, const std::string& s, bool big, double b
   row->local_mapping_ms = c.local_mapping_ms;
   report->Add(s, {"restore mapping: local mapping median per keyframe", c.local_mapping_ms, "ms",
                   "-", true});
-  if (base_local_mapping_ms > 0) {
-    const double ratio = c.local_mapping_ms / base_local_mapping_ms;
+  if (c.reference_local_mapping_ms > 0) {
+    report->Add(s, {"  the base map's, run just before", c.reference_local_mapping_ms, "ms", "-",
+                    true});
+    const double ratio = c.local_mapping_ms / c.reference_local_mapping_ms;
     report->Add(s,
                 {"  against the base map's", ratio, "x", goal("<= 1.5 x"), !big || ratio <= 1.5});
   }
@@ -380,7 +412,7 @@ void AddLoopStep(const Options& o, rrslam::bench::LoopStep step, const fs::path&
 }
 
 Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Vocabulary& vocab,
-                int size, const Row& base_row, Report* report) {
+                int size, Report* report) {
   rrslam::ComposeOptions compose;
   compose.flipped_bits = o.flipped_bits;
   compose.copies = static_cast<int>((size + base.keyframes.size() - 1) / base.keyframes.size());
@@ -442,8 +474,7 @@ Row MeasureSize(const Options& o, const rrslam::MapData& base, const rrslam::Voc
   Row row{
       static_cast<double>(keyframes), save_s, Median(loads), verify_median, bytes / 1e6, peak_mb};
   if (!o.track.empty()) {
-    AddColdStarts(RunColdStarts(o, path), s, big, base_row.tracking_median_ms,
-                  base_row.local_mapping_ms, report, &row);
+    AddColdStarts(RunColdStarts(o, path, o.map), s, big, report, &row);
     AddLoopStep(o, rrslam::bench::LoopStep::kEssentialGraph, path, s, keyframes >= 3000, report,
                 &row);
     if (static_cast<int>(keyframes) <= o.global_ba_max_keyframes) {
@@ -647,12 +678,12 @@ int main(int argc, char** argv) {
   Row base_row;
   if (!o.track.empty()) {
     const std::string s = "base map (" + std::to_string(base.keyframes.size()) + " keyframes)";
-    AddColdStarts(RunColdStarts(o, o.map), s, false, 0, 0, &report, &base_row);
+    AddColdStarts(RunColdStarts(o, o.map), s, false, &report, &base_row);
     AddLoopStep(o, rrslam::bench::LoopStep::kEssentialGraph, o.map, s, false, &report, &base_row);
     AddLoopStep(o, rrslam::bench::LoopStep::kGlobalBa, o.map, s, false, &report, &base_row);
   }
   for (const int size : o.sizes) {
-    rows.push_back(MeasureSize(o, base, vocab, size, base_row, &report));
+    rows.push_back(MeasureSize(o, base, vocab, size, &report));
   }
   if (!o.synth.empty() && !o.track.empty()) {
     MeasureRevisits(o, &report);
