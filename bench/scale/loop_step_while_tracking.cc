@@ -1,23 +1,18 @@
 #include "bench/scale/loop_step_while_tracking.h"
 
+#include "bench/scale/tracked_map.h"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <mutex>
-#include <numeric>
 #include <stdexcept>
 #include <thread>
 #include <utility>
 
 #include "common/clock.h"
-#include "common/dataset.h"
-#include "common/heap_reserve.h"
-#include "common/settings.h"
-#include "stages/extract/extract.h"
-#include "stages/mapstore/map_file.h"
 #include "stages/track/data/keyframe_database.h"
 #include "stages/track/data/map.h"
-#include "stages/track/data/map_io.h"
 #include "stages/track/data/sensor_model.h"
 #include "stages/track/module/local_mapper.h"
 #include "stages/track/module/loop_closer.h"
@@ -125,36 +120,22 @@ size_t BackAndForth(size_t i, size_t n) {
 
 LoopStepWhileTracking MeasureLoopStepWhileTracking(const LoopStepWhileTrackingOptions& o) {
   LoopStepWhileTracking r;
-  const Settings settings = ReadSettings(o.settings);
-  const Vocabulary vocabulary = Vocabulary::Load(o.vocab);
-  // Loaded as rrslam-track --load-map loads it (track.cc: the same heap
-  // preparation, which also sets glibc's thresholds for the whole process).
-  const HeapReservation heap = ReserveHeapForLoadMap(o.map);
-  MapFileInfo info;
-  MapData data = ReadMapFile(o.map, &info);
-  const int levels_up = data.bow_levels_up;
-  const SensorModel sensor(settings, data.camera.width, data.camera.height);
-  Map map;
-  KeyFrameDatabase database(vocabulary);
-  LoadMapData(std::move(data), sensor, vocabulary, levels_up, &map, &database, o.map.string());
+  TrackedMap m({o.map, o.vocab, o.settings, o.sequence}, o.first_frame, o.frames);
+  const SensorModel& sensor = m.sensor();
+  Map& map = m.map();
   if (o.step == LoopStep::kEssentialGraph &&
       map.num_keyframes() <= static_cast<size_t>(std::max(o.loop_span, 0))) {
     throw std::runtime_error(o.map.string() + ": " + std::to_string(map.num_keyframes()) +
                              " keyframes, too few for a loop over " + std::to_string(o.loop_span));
   }
 
-  const RgbdSequence sequence = RgbdSequence::Open(o.sequence);
-  std::vector<size_t> indices(static_cast<size_t>(o.frames));
-  std::iota(indices.begin(), indices.end(), static_cast<size_t>(o.first_frame));
-  const FeaturesFile features = ExtractFrames(sequence, settings, indices, 0);
-
   TrackerOptions tracker_options;
   tracker_options.localization_only = true;
-  tracker_options.bow_levels_up = levels_up;
+  tracker_options.bow_levels_up = m.bow_levels_up();
   LocalMapperOptions mapper_options;
-  mapper_options.bow_levels_up = levels_up;
-  LocalMapper mapper(sensor, vocabulary, &map, &database, mapper_options);
-  Tracker tracker(sensor, vocabulary, &map, &mapper, database, tracker_options);
+  mapper_options.bow_levels_up = m.bow_levels_up();
+  LocalMapper mapper(sensor, m.vocabulary(), &map, &m.database(), mapper_options);
+  Tracker tracker(sensor, m.vocabulary(), &map, &mapper, m.database(), tracker_options);
   tracker.StartOnLoadedMap();
 
   std::atomic<bool> step_running{false}, step_done{false};
@@ -177,13 +158,7 @@ LoopStepWhileTracking MeasureLoopStepWhileTracking(const LoopStepWhileTrackingOp
       });
     }
     const bool during = step_running.load() && !step_done.load();
-    const size_t j = BackAndForth(i, indices.size());
-    const auto keypoints = features.FrameKeypoints(j);
-    const auto descriptors = features.FrameDescriptors(j);
-    Frame frame(
-        i, i / o.fps,
-        BuildFrameFeatures(sensor, std::vector<Keypoint>(keypoints.begin(), keypoints.end()),
-                           std::vector<OrbDescriptor>(descriptors.begin(), descriptors.end())));
+    Frame frame = m.MakeFrame(BackAndForth(i, static_cast<size_t>(m.frames())), i, i / o.fps);
     const auto track_start = SteadyClock::now();
     const bool tracked = tracker.Track(std::move(frame));
     const double ms = MillisecondsSince(track_start);

@@ -1,0 +1,30 @@
+#include "bench/scale/relocalization_sweep.h"
+
+#include "common/clock.h"
+#include "stages/track/module/relocalizer.h"
+#include "stages/track/module/tracker.h"
+
+namespace rrslam::bench {
+
+RelocalizationSweep SweepRelocalization(const RelocalizationSweepOptions& o) {
+  TrackedMap m(o.paths, o.first_frame, o.frames);
+  const TrackerOptions tracker;  // rrslam-track's defaults.
+  Relocalizer relocalizer(m.sensor(), m.database(), m.map(), tracker.relocalization);
+  relocalizer.PrepareIndex();
+  RelocalizationSweep sweep;
+  for (int i = 0; i < m.frames(); i += std::max(o.stride, 1)) {
+    Frame frame = m.MakeFrame(static_cast<size_t>(i), static_cast<uint64_t>(i), i / 30.0);
+    const auto start = SteadyClock::now();
+    if (tracker.relocalization.method != RelocalizationMethod::kDirect) {
+      frame.ComputeBow(m.vocabulary(), m.bow_levels_up());
+    }
+    RelocalizationAttempt attempt;
+    const KeyFrame* keyframe = relocalizer.Relocalize(&frame, nullptr, &attempt);
+    sweep.attempt_ms.push_back(MillisecondsSince(start));
+    sweep.relocalized += keyframe != nullptr;
+    sweep.by_direct += keyframe != nullptr && attempt.stage == "direct";
+  }
+  return sweep;
+}
+
+}  // namespace rrslam::bench
