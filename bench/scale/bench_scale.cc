@@ -342,7 +342,8 @@ void AddColdStarts(const ColdStarts& c, const std::string& s, bool big, Report* 
                   "-", true});
   if (!c.reference_tracking_median_ms.empty()) {
     const double base_ms = Median(c.reference_tracking_median_ms);
-    report->Add(s, {"  the base map's, its starts alternated with these", base_ms, "ms", "-", true});
+    report->Add(s,
+                {"  the base map's, its starts alternated with these", base_ms, "ms", "-", true});
     const double ratio = row->tracking_median_ms / base_ms;
     report->Add(s,
                 {"  against the base map's", ratio, "x", goal("<= 1.2 x"), !big || ratio <= 1.2});
@@ -354,8 +355,8 @@ void AddColdStarts(const ColdStarts& c, const std::string& s, bool big, Report* 
   report->Add(s, {"restore mapping: local mapping median per keyframe", c.local_mapping_ms, "ms",
                   "-", true});
   if (c.reference_local_mapping_ms > 0) {
-    report->Add(s, {"  the base map's, run just before", c.reference_local_mapping_ms, "ms", "-",
-                    true});
+    report->Add(
+        s, {"  the base map's, run just before", c.reference_local_mapping_ms, "ms", "-", true});
     const double ratio = c.local_mapping_ms / c.reference_local_mapping_ms;
     report->Add(s,
                 {"  against the base map's", ratio, "x", goal("<= 1.5 x"), !big || ratio <= 1.5});

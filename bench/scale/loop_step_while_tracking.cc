@@ -1,7 +1,5 @@
 #include "bench/scale/loop_step_while_tracking.h"
 
-#include "bench/scale/tracked_map.h"
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -10,6 +8,7 @@
 #include <thread>
 #include <utility>
 
+#include "bench/scale/tracked_map.h"
 #include "common/clock.h"
 #include "stages/track/data/keyframe_database.h"
 #include "stages/track/data/map.h"

@@ -1,5 +1,7 @@
 #include "bench/scale/relocalization_sweep.h"
 
+#include <algorithm>
+
 #include "common/clock.h"
 #include "stages/track/module/relocalizer.h"
 #include "stages/track/module/tracker.h"

@@ -32,9 +32,10 @@ TrackedMap::TrackedMap(const TrackedMapPaths& paths, int first_frame, int frames
 Frame TrackedMap::MakeFrame(size_t i, uint64_t id, double timestamp) const {
   const auto keypoints = features_.FrameKeypoints(i);
   const auto descriptors = features_.FrameDescriptors(i);
-  return Frame(id, timestamp,
-               BuildFrameFeatures(*sensor_, std::vector<Keypoint>(keypoints.begin(), keypoints.end()),
-                                  std::vector<OrbDescriptor>(descriptors.begin(), descriptors.end())));
+  return Frame(
+      id, timestamp,
+      BuildFrameFeatures(*sensor_, std::vector<Keypoint>(keypoints.begin(), keypoints.end()),
+                         std::vector<OrbDescriptor>(descriptors.begin(), descriptors.end())));
 }
 
 }  // namespace rrslam::bench
