@@ -60,10 +60,11 @@ HeapReservation ReserveHeapForLoadMap(const std::filesystem::path& path);
 // vectors are recomputed when `bow_levels_up` differs from the saved one),
 // connections, parents and loop edges; map points their ids, positions,
 // normals, distances, descriptors, counters and observations. `data` is
-// consumed (its arrays move into the map; descriptors that view a map file,
-// ReadMapFile, stay views: the keyframes keep the file's mapping open). Throws DataError naming
-// `source` when `map` is not empty or a next id is above CheckMapNextIds' bound (map_file.h: ids
-// index the map's arrays).
+// consumed (its arrays move into the map; descriptors that view a map
+// file, ReadMapFile, stay views: the keyframes keep the file's mapping
+// open). Throws DataError naming `source` when `map` is not empty or a next
+// id is above CheckMapNextIds' bound (map_file.h: ids index the map's
+// arrays).
 void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& vocabulary,
                  int bow_levels_up, Map* map, KeyFrameDatabase* database,
                  const std::string& source);
