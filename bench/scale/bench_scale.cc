@@ -382,6 +382,9 @@ void AddRelocalizationSweep(const Options& o, const fs::path& map, const std::st
                   Median(sweep.attempt_ms), "ms", "-", true});
   report->Add(s, {"relocalization attempt p95 (in process)", row->relocalization_p95_ms, "ms",
                   big ? "<= 30 ms" : "-", !big || row->relocalization_p95_ms <= 30});
+  report->Add(s, {"  of which the bag-of-words stage: median", Median(sweep.bow_stage_ms), "ms",
+                  "-", true});
+  report->Add(s, {"    p95", Percentile(sweep.bow_stage_ms, 0.95), "ms", "-", true});
   report->Add(s, {"  attempts that gave a pose (of " + n + ")",
                   static_cast<double>(sweep.relocalized), "", "-", true});
   report->Add(s, {"    by the direct stage", static_cast<double>(sweep.by_direct), "", "-", true});

@@ -23,6 +23,7 @@ RelocalizationSweep SweepRelocalization(const RelocalizationSweepOptions& o) {
     RelocalizationAttempt attempt;
     const KeyFrame* keyframe = relocalizer.Relocalize(&frame, nullptr, &attempt);
     sweep.attempt_ms.push_back(MillisecondsSince(start));
+    sweep.bow_stage_ms.push_back(attempt.bow_stage_ms);
     sweep.relocalized += keyframe != nullptr;
     sweep.by_direct += keyframe != nullptr && attempt.stage == "direct";
   }

@@ -22,9 +22,10 @@ struct RelocalizationSweepOptions {
 };
 
 struct RelocalizationSweep {
-  std::vector<double> attempt_ms;  // Each attempt's, in frame order.
-  int relocalized = 0;             // Attempts that gave a pose.
-  int by_direct = 0;               // Of those, by the direct stage.
+  std::vector<double> attempt_ms;    // Each attempt's, in frame order.
+  std::vector<double> bow_stage_ms;  // Of each, the bag-of-words stage (RelocalizationAttempt).
+  int relocalized = 0;               // Attempts that gave a pose.
+  int by_direct = 0;                 // Of those, by the direct stage.
 };
 
 // Throws as TrackedMap.
