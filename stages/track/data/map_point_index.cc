@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <random>
 #include <tuple>
 
@@ -13,45 +14,28 @@
 namespace rrslam {
 
 // One hash table: the key of a descriptor is `bits` of its 256 bits; the
-// rows of each key stored contiguously (rows[offset .. offset + count)),
-// found through an open-addressing table of the keys (linear probing, at
-// most three quarters full). A key's home slot is the top bits of its mix,
-// a bijection of the key's bits, so that rows sorted by mix fill the slots
-// in order (FillTable: a pass through memory instead of a miss per key).
+// rows of each key stored contiguously, in key order (rows[offsets[r] ..
+// offsets[r + 1]) for the r-th key present). A key is found by its rank
+// among the keys present: one bit per possible key (2^20 keys: 128 kB), and
+// with each 64 of them the number set before. Most of a search's probes are
+// of absent keys, answered by the bitmap from the cache; a present key costs
+// one read of `offsets` (4 bytes a key) before its rows.
 struct MapPointIndex::Table {
-  struct Slot {
-    uint32_t key = 0;
-    uint32_t offset = 0;
-    uint32_t count = 0;  // 0: empty.
-  };
   std::vector<int> bits;
   // Key() a byte at a time: the descriptor bytes holding key bits, and for
   // each of them the key bits of its 256 values.
   std::vector<int> key_bytes;
   std::vector<std::array<uint32_t, 256>> key_of_byte;
-  uint32_t key_mask = 0;    // The low `bits.size()` bits.
-  int home_shift = 0;       // bits.size() - log2(slots.size()).
-  std::vector<Slot> slots;  // A power of two, at most 2^bits.size().
+  struct Block {
+    uint64_t present = 0;  // Bit k: key 64 * block + k has rows.
+    uint32_t before = 0;   // Keys present in the blocks before this one.
+  };
+  std::vector<Block> blocks;      // 2^bits.size() / 64, at least one.
+  std::vector<uint32_t> offsets;  // Per key present, then the rows' count.
   std::vector<uint32_t> rows;
-  // One bit per possible key, set for the keys in `slots` (keys of up to
-  // kPresenceMaxBits; empty for longer ones): most of a search's probes are
-  // of absent keys, answered by this small array (2^20 keys: 128 kB) from
-  // the cache instead of by a miss into `slots`.
-  std::vector<uint64_t> present;
 
-  // Odd, so that multiplying by it permutes the keys modulo 2^bits; and its
-  // inverse modulo 2^32.
-  static constexpr uint32_t kMix = 0x9E3779B1u;
-  static constexpr uint32_t kUnmix = [] {
-    uint32_t inverse = kMix;  // Newton's iteration doubles the correct bits.
-    for (int i = 0; i < 5; ++i) inverse *= 2u - kMix * inverse;
-    return inverse;
-  }();
-
-  // `bits` drawn: the byte tables, the mask; `capacity` slots (a power of
-  // two, at most 2^bits) allocated empty.
-  void Prepare(size_t capacity) {
-    key_mask = bits.size() >= 32 ? ~0u : (1u << bits.size()) - 1;
+  // `bits` drawn: the byte tables; the blocks allocated empty.
+  void Prepare() {
     key_bytes.clear();
     key_of_byte.clear();
     for (size_t b = 0; b < bits.size(); ++b) {
@@ -65,12 +49,7 @@ struct MapPointIndex::Table {
       std::array<uint32_t, 256>& of = key_of_byte[static_cast<size_t>(it - key_bytes.begin())];
       for (uint32_t v = 0; v < 256; ++v) of[v] |= ((v >> (bits[b] & 7)) & 1u) << b;
     }
-    slots.assign(capacity, {});
-    home_shift = static_cast<int>(bits.size());
-    for (size_t c = capacity; c > 1; c >>= 1) --home_shift;
-  }
-  bool MayHave(uint32_t key) const {
-    return present.empty() || (present[key >> 6] >> (key & 63) & 1) != 0;
+    blocks.assign(std::max<size_t>(1, (size_t{1} << bits.size()) / 64), {});
   }
   // Bit b of the key is bit bits[b] of `d`.
   uint32_t Key(const OrbDescriptor& d) const {
@@ -78,20 +57,12 @@ struct MapPointIndex::Table {
     for (size_t j = 0; j < key_bytes.size(); ++j) key |= key_of_byte[j][d.bytes[key_bytes[j]]];
     return key;
   }
-  uint32_t Mix(uint32_t key) const { return (key * kMix) & key_mask; }
-  uint32_t Unmix(uint32_t mixed) const { return (mixed * kUnmix) & key_mask; }
-  size_t Home(uint32_t key) const { return Mix(key) >> home_shift; }
-  Slot& Insert(uint32_t key) {
-    size_t i = Home(key);
-    while (slots[i].count != 0 && slots[i].key != key) i = (i + 1) & (slots.size() - 1);
-    slots[i].key = key;
-    return slots[i];
-  }
-  const Slot* Find(uint32_t key) const {
-    for (size_t i = Home(key);; i = (i + 1) & (slots.size() - 1)) {
-      if (slots[i].count == 0) return nullptr;
-      if (slots[i].key == key) return &slots[i];
-    }
+  // The rank of `key` among the keys present; -1 when it is absent.
+  int64_t Rank(uint32_t key) const {
+    const Block& b = blocks[key >> 6];
+    const uint64_t bit = uint64_t{1} << (key & 63);
+    if ((b.present & bit) == 0) return -1;
+    return b.before + std::popcount(b.present & (bit - 1));
   }
 };
 
@@ -103,8 +74,9 @@ bool MapPointIndexOptions::Check(std::string* why) const {
   if (tables < 1 || tables > 64) {
     return fail("tables = " + std::to_string(tables) + "; must be in [1, 64]");
   }
-  if (key_bits < 1 || key_bits > 32) {
-    return fail("key_bits = " + std::to_string(key_bits) + "; must be in [1, 32]");
+  if (key_bits < 1 || key_bits > kMaxKeyBits) {
+    return fail("key_bits = " + std::to_string(key_bits) + "; must be in [1, " +
+                std::to_string(kMaxKeyBits) + "]");
   }
   if (probe_level < 0 || probe_level > 1) {
     return fail("probe_level = " + std::to_string(probe_level) + "; must be 0 or 1");
@@ -232,21 +204,12 @@ void MapPointIndex::AllocateTables() {
   std::mt19937_64 rng(options_.seed);
   std::vector<int> all(8 * sizeof(OrbDescriptor));
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
-  // At most three quarters full (rows bound the keys): linear probing's
-  // misses, most of a search's probes, stay within a cache line or two.
-  // No more slots than keys: a key's home is the top bits of its mix.
-  size_t capacity = 2;
-  while (3 * capacity < 4 * descriptors_.size()) capacity *= 2;
-  capacity = std::min<uint64_t>(capacity, uint64_t{1} << options_.key_bits);
   tables_.resize(static_cast<size_t>(options_.tables));
   for (Table& table : tables_) {
     std::shuffle(all.begin(), all.end(), rng);
     table.bits.assign(all.begin(), all.begin() + options_.key_bits);
-    table.Prepare(capacity);
+    table.Prepare();
     table.rows.resize(descriptors_.size());
-    if (options_.key_bits <= kPresenceMaxBits) {
-      table.present.assign(((size_t{1} << options_.key_bits) + 63) / 64, 0);
-    }
   }
 }
 
@@ -263,28 +226,29 @@ void MapPointIndex::BuildTables() {
 
 void MapPointIndex::FillTable(Table* table_out) const {
   Table& table = *table_out;
-  // Rows sorted by mixed key (then row), each key's rows one bucket, the
-  // buckets' slots in increasing order of their homes.
-  const std::vector<std::pair<uint32_t, uint32_t>> mixed = SortedByMixedKey(table);
-  for (size_t begin = 0, end = 0; begin < mixed.size(); begin = end) {
-    for (end = begin; end < mixed.size() && mixed[end].first == mixed[begin].first; ++end) {
-      table.rows[end] = mixed[end].second;
+  // Rows sorted by key (then row), each key's rows one bucket.
+  const std::vector<std::pair<uint32_t, uint32_t>> keyed = SortedByKey(table);
+  table.offsets.clear();
+  for (size_t begin = 0, end = 0; begin < keyed.size(); begin = end) {
+    for (end = begin; end < keyed.size() && keyed[end].first == keyed[begin].first; ++end) {
+      table.rows[end] = keyed[end].second;
     }
-    const uint32_t key = table.Unmix(mixed[begin].first);
-    Table::Slot& slot = table.Insert(key);
-    slot.offset = static_cast<uint32_t>(begin);
-    slot.count = static_cast<uint32_t>(end - begin);
-    if (!table.present.empty()) table.present[key >> 6] |= uint64_t{1} << (key & 63);
+    const uint32_t key = keyed[begin].first;
+    table.blocks[key >> 6].present |= uint64_t{1} << (key & 63);
+    table.offsets.push_back(static_cast<uint32_t>(begin));
+  }
+  table.offsets.push_back(static_cast<uint32_t>(keyed.size()));
+  uint32_t before = 0;
+  for (Table::Block& block : table.blocks) {
+    block.before = before;
+    before += static_cast<uint32_t>(std::popcount(block.present));
   }
 }
 
-std::vector<std::pair<uint32_t, uint32_t>> MapPointIndex::SortedByMixedKey(
-    const Table& table) const {
+std::vector<std::pair<uint32_t, uint32_t>> MapPointIndex::SortedByKey(const Table& table) const {
   const size_t n = descriptors_.size();
   std::vector<std::pair<uint32_t, uint32_t>> keyed(n), scratch(n);
-  for (size_t r = 0; r < n; ++r) {
-    keyed[r] = {table.Mix(table.Key(descriptors_[r])), static_cast<uint32_t>(r)};
-  }
+  for (size_t r = 0; r < n; ++r) keyed[r] = {table.Key(descriptors_[r]), static_cast<uint32_t>(r)};
   // A least-significant-digit radix sort, kRadixBits of the key a pass: as
   // stable as counting, so rows stay in increasing order within a key (the
   // pairs' order), in time linear in the rows whatever their number (a
@@ -334,8 +298,8 @@ void MapPointIndex::SearchRange(const std::vector<OrbDescriptor>& queries, size_
   }
 }
 
-// On a big map every slot and row a query reads is a cache miss: the reads
-// are issued as prefetches in passes (the probes' slots, then their rows,
+// On a big map every offset and row a query reads is a cache miss: the reads
+// are issued as prefetches in passes (the probes' offsets, then their rows,
 // compared by KeepTwoNearest), so that the misses overlap instead of
 // following one another.
 void MapPointIndex::CandidateRows(const OrbDescriptor& query, std::vector<Probe>* probes,
@@ -347,17 +311,16 @@ void MapPointIndex::CandidateRows(const OrbDescriptor& query, std::vector<Probe>
   for (const Table& table : tables_) {
     const uint32_t key = table.Key(query);
     for (int flip = -1; flip < flips; ++flip) {
-      const uint32_t probe = flip < 0 ? key : key ^ (1u << flip);
-      if (!table.MayHave(probe)) continue;
-      probes->push_back({&table, probe});
-      __builtin_prefetch(&table.slots[table.Home(probe)]);
+      const int64_t rank = table.Rank(flip < 0 ? key : key ^ (1u << flip));
+      if (rank < 0) continue;
+      probes->push_back({&table, static_cast<uint32_t>(rank)});
+      __builtin_prefetch(&table.offsets[static_cast<size_t>(rank)]);
     }
   }
   rows->clear();
   for (const Probe& probe : *probes) {
-    const Table::Slot* slot = probe.table->Find(probe.key);
-    if (slot == nullptr) continue;
-    for (uint32_t i = slot->offset; i < slot->offset + slot->count; ++i) {
+    const uint32_t* offset = &probe.table->offsets[probe.rank];
+    for (uint32_t i = offset[0]; i < offset[1]; ++i) {
       const uint32_t row = probe.table->rows[i];
       rows->push_back(row);
       __builtin_prefetch(&descriptors_[row]);

@@ -41,13 +41,14 @@ class MapPoint;
 class WorkerPool;
 
 struct MapPointIndexOptions {
+  static constexpr int kMaxKeyBits = 24;
   // FLANN's LshIndexParams() defaults (OpenCV's FLANN users pick the same),
   // but one probe level where FLANN has 2: on the kitchen map (5.6k points,
   // 1000 keypoints a frame) level 2 found 1.9x the matches in 4x the time
   // (48-62 ms a frame against 12-14 ms), and level 1 relocalized the same
   // frames (docs/track.md, "Direct relocalization").
   int tables = 12;
-  int key_bits = 20;
+  int key_bits = 20;    // At most kMaxKeyBits (a table holds a bit per key).
   int probe_level = 1;  // 0 or 1.
   uint64_t seed = 1;    // Of the key bits.
   // Threads a search runs on, the caller's included (the same answers for
@@ -62,8 +63,8 @@ struct MapPointIndexOptions {
   // already, at least `min_extra_distance` bits). A map whose points reach
   // the budget is indexed by representatives alone. 2^19 rows keep the index
   // within the size and build time of a 10k-keyframe map's representatives
-  // (582 660 points: 0.14-0.15 s beside tracking, ~200 MB): on the kitchen's
-  // map (5 395 points, 36 675 descriptors, built in 10-11 ms) cold starts from later
+  // (582 660 points: 0.07-0.11 s beside tracking, ~80 MB): on the kitchen's
+  // map (5 395 points, 36 675 descriptors, built in 8-10 ms) cold starts from later
   // frames relocalized at once 45 of 50 times against 38 with
   // representatives alone (docs/track.md, "Direct relocalization").
   // 0: representatives alone.
@@ -114,10 +115,10 @@ class MapPointIndex {
 
  private:
   struct Table;
-  // A bucket to read: `key` in `table`.
+  // A bucket to read: that of the `rank`-th key present in `table`.
   struct Probe {
     const Table* table;
-    uint32_t key;
+    uint32_t rank;
   };
   // The good ones of `points` and their descriptors as the rows (tables
   // cleared), then their observations' descriptors within the budget.
@@ -135,14 +136,13 @@ class MapPointIndex {
   // The two nearest good points among `rows` into `n` (initially empty).
   void KeepTwoNearest(const DescriptorWords& query, const std::vector<uint32_t>& rows,
                       DescriptorNeighbours* n) const;
-  // Keys of up to this many bits have a presence bitmap (2^bits bits a table).
-  static constexpr int kPresenceMaxBits = 22;
-  // Each table's key bits drawn, its slots (empty) and rows allocated.
+  // Each table's key bits drawn, its key bitmap (empty) and rows allocated.
   void AllocateTables();
-  // The slots and rows of `table` (allocated, its bits drawn) from descriptors_.
+  // The bitmap, offsets and rows of `table` (allocated, its bits drawn) from
+  // descriptors_.
   void FillTable(Table* table) const;
-  // (mixed key, row) of every row in `table`, sorted.
-  std::vector<std::pair<uint32_t, uint32_t>> SortedByMixedKey(const Table& table) const;
+  // (key, row) of every row in `table`, sorted.
+  std::vector<std::pair<uint32_t, uint32_t>> SortedByKey(const Table& table) const;
   MapPointIndexOptions options_;
   size_t points_ = 0;                       // Rows [0, points_): one per point.
   std::vector<MapPoint*> row_points_;       // The point of each row.

@@ -288,13 +288,13 @@ TEST(MapPointIndexTest, ObservationDescriptorsStayWithinTheBudget) {
   EXPECT_EQ(far_only.rows(), 100u);
 }
 
-// Keys of few bits: fewer possible keys than rows, so every key has a slot
-// of its own and the slots are full (3 of 4 keys of 2 bits probed per
+// Keys of few bits: fewer possible keys than rows, so every key is present
+// and the keys' bitmap is a part of one word (3 of 4 keys of 2 bits probed per
 // table, each of 12 tables: a row is missed by all of them with odds of
 // 4^-12). The two nearest are then exact, as a scan of every point finds;
 // with 9 bits (512 keys, all present) the answers are real points at their
 // true distances, the nearest found for most queries.
-TEST(MapPointIndexTest, KeysOfFewBitsFillEverySlotAndAnswerAsAScan) {
+TEST(MapPointIndexTest, KeysOfFewBitsAreAllPresentAndAnswerAsAScan) {
   std::mt19937 rng(11);
   Map map;
   const std::vector<MapPoint*> points = RandomPoints(&map, 2000, rng);
@@ -335,7 +335,7 @@ TEST(MapPointIndexTest, OptionsOutOfRangeAreNamed) {
   MapPointIndexOptions o;
   o.key_bits = 40;
   EXPECT_FALSE(o.Check(&why));
-  EXPECT_EQ(why, "key_bits = 40; must be in [1, 32]");
+  EXPECT_EQ(why, "key_bits = 40; must be in [1, 24]");
   o = {};
   o.threads = 0;
   EXPECT_FALSE(o.Check(&why));

@@ -257,6 +257,32 @@ KeyFrame* MostObservingKeyFrame(const Frame& frame) {
   return best;
 }
 
+// `points` without the frame's matched points, each once, where it came
+// first. (Sorted copies rather than a set of the points seen: a local map of
+// thousands of points cost a millisecond in a std::set's allocations.)
+std::vector<MapPoint*> UnmatchedOnce(const Frame& frame, std::vector<MapPoint*> points) {
+  std::vector<const MapPoint*> matched(frame.map_points.begin(), frame.map_points.end());
+  std::sort(matched.begin(), matched.end());
+  std::vector<uint32_t> order(points.size());
+  std::iota(order.begin(), order.end(), 0u);
+  // By point, then by position: each point's first place leads its run.
+  std::sort(order.begin(), order.end(), [&points](uint32_t a, uint32_t b) {
+    return points[a] != points[b] ? std::less<const MapPoint*>()(points[a], points[b]) : a < b;
+  });
+  std::vector<uint8_t> keep(points.size(), 0);
+  for (size_t k = 0; k < order.size(); ++k) {
+    const MapPoint* p = points[order[k]];
+    if (k > 0 && points[order[k - 1]] == p) continue;
+    keep[order[k]] = !std::binary_search(matched.begin(), matched.end(), p);
+  }
+  size_t kept = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (keep[i]) points[kept++] = points[i];
+  }
+  points.resize(kept);
+  return points;
+}
+
 // The map points near a frame's matched points, not yet matched: those of
 // the keyframes observing the matched points and of each one's best
 // covisible keyframes, up to `max_keyframes` keyframes (voters first, by id).
@@ -280,15 +306,13 @@ std::vector<MapPoint*> LocalMapPoints(const Frame& frame, int max_keyframes) {
   for (const auto& [id, kf] : voters) {
     for (KeyFrame* n : kf->BestCovisible(kCovisibleNeighbours)) take(n);
   }
-  // The frame's matched points count as seen already.
-  std::set<const MapPoint*> seen(frame.map_points.begin(), frame.map_points.end());
   std::vector<MapPoint*> points;
   for (KeyFrame* kf : keyframes) {
     for (MapPoint* p : kf->map_points()) {
-      if (p != nullptr && !p->bad() && seen.insert(p).second) points.push_back(p);
+      if (p != nullptr && !p->bad()) points.push_back(p);
     }
   }
-  return points;
+  return UnmatchedOnce(frame, std::move(points));
 }
 
 }  // namespace
