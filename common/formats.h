@@ -10,6 +10,10 @@
 //   rrslam.vocab_tree 1.0 hierarchical k-means tree of ORB descriptors (cluster)
 //   rrslam.vocabulary 1.0 binary bag-of-words vocabulary (vocab)
 //   rrslam.map       1.0  saved SLAM map: keyframes, map points, graph (mapstore)
+//                    1.1  other maps kept beside the map
+//                    2.0  keypoint records of 32 bytes in extract's Keypoint layout (no
+//                         u_right), bag-of-words entries and observations of 12 bytes;
+//                         1.x files still read (docs/mapstore.md, "Versions")
 #pragma once
 
 #include <cstdint>
@@ -26,6 +30,6 @@ struct FormatSpec {
 inline constexpr FormatSpec kFeaturesFormat = {"rrslam.features", "", 1, 1};
 inline constexpr FormatSpec kVocabTreeFormat = {"rrslam.vocab_tree", "", 1, 0};
 inline constexpr FormatSpec kVocabularyFormat = {"rrslam.vocabulary", "RRSLVOCB", 1, 1};
-inline constexpr FormatSpec kMapFormat = {"rrslam.map", "RRSLMAP1", 1, 0};
+inline constexpr FormatSpec kMapFormat = {"rrslam.map", "RRSLMAP1", 2, 0};
 
 }  // namespace rrslam

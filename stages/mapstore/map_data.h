@@ -93,16 +93,18 @@ struct MapVocabulary {
   }
 };
 
-// One keypoint of a keyframe (as extract's Keypoint plus its virtual right
-// coordinate).
+// One keypoint of a keyframe: the fields of extract's Keypoint, in its
+// order and layout (32 bytes; the file's keypoint record since format 2.0),
+// so that a reader can view a mapped file's keypoints as keypoints (track
+// does, stages/track/data/map_io.cc). The virtual right coordinate is not
+// stored: it follows from the depth and the camera's bf.
 struct MapKeypoint {
   float pixel_x = 0, pixel_y = 0;              // Real (distorted) image pixel.
   float undistorted_x = 0, undistorted_y = 0;  // Ideal pinhole pixel.
   float angle_deg = 0;                         // Orientation, [0, 360).
+  uint8_t octave = 0;                          // Pyramid level.
   float response = 0;                          // Corner score.
   float depth = 0;                             // Metres; 0 = none.
-  float u_right = 0;   // Virtual right-image u (ideal px); < 0 when no depth.
-  uint8_t octave = 0;  // Pyramid level.
 
   bool operator==(const MapKeypoint&) const = default;
 };
@@ -161,7 +163,7 @@ struct MapData {
   uint64_t next_map_point_id = 0;
   // JSON: producer (tool, version) and the options of the run that saved it.
   std::string metadata;
-  // Format 1.1: maps of the same place, camera and vocabulary kept beside
+  // Since format 1.1: maps of the same place, camera and vocabulary kept beside
   // this one, each in a world frame of its own and complete in itself (ids
   // may repeat across maps; their own other_maps empty): a session whose new
   // map never met the loaded one (docs/track.md, "Several maps in one

@@ -62,15 +62,27 @@ constexpr uint64_t SectionAlignment(int section) { return section == kDescriptor
 
 constexpr size_t kMetaFixedSize = 280;
 constexpr size_t kKeyframeRecordSize = 112;
-constexpr size_t kKeypointRecordSize = 36;
 constexpr size_t kDescriptorSize = 32;
-constexpr size_t kBowEntrySize = 16;
 constexpr size_t kFvGroupSize = 8;
 constexpr size_t kFvIndexSize = 4;
 constexpr size_t kConnectionSize = 16;
 constexpr size_t kLoopEdgeSize = 8;
 constexpr size_t kMapPointRecordSize = 136;
-constexpr size_t kObservationSize = 16;
+
+// The records whose size format 2.0 changed (docs/mapstore.md, "Versions");
+// files of format 1.x still read.
+struct RecordSizes {
+  // 1.x: 36 bytes (u_right at 28, the octave at 32); 2.0: MapKeypoint's 32.
+  size_t keypoint;
+  size_t bow_entry;    // 1.x: 16 (4 bytes reserved, the value at 8); 2.0: 12 (at 4).
+  size_t observation;  // 1.x: 16 (4 bytes reserved); 2.0: 12.
+};
+constexpr RecordSizes kRecordSizes1 = {36, 16, 16};
+constexpr RecordSizes kRecordSizes2 = {32, 12, 12};
+// Those of a file of format `major` (1 or 2).
+const RecordSizes& RecordSizesOf(uint16_t major) {
+  return major == 1 ? kRecordSizes1 : kRecordSizes2;
+}
 
 uint64_t AlignUp(uint64_t value, uint64_t alignment) {
   return (value + alignment - 1) / alignment * alignment;
@@ -85,7 +97,7 @@ void Store(uint8_t* p, T value) {
   StoreLittleEndian<T>(p, value);
 }
 
-// The other maps' sections (format 1.1) are named "<k>:<short name>" for
+// The other maps' sections (since format 1.1) are named "<k>:<short name>" for
 // the k-th other map: "1:kp" (16 bytes hold at most "99:graph").
 constexpr std::array<const char*, kNumSections> kOtherMapSectionNames = {
     "meta", "kf", "kp", "desc", "kfp", "bow", "fv", "graph", "mp", "obs"};
@@ -131,18 +143,18 @@ uint64_t Plus(uint64_t a, uint64_t b) {
                                                       : a + b;
 }
 
-uint64_t ExpectedSectionSize(int section, const MapCounts& c) {
+uint64_t ExpectedSectionSize(int section, const MapCounts& c, const RecordSizes& r) {
   switch (section) {
     case kKeyframes:
       return Times(c.keyframes, kKeyframeRecordSize);
     case kKeypoints:
-      return Times(c.keypoints, kKeypointRecordSize);
+      return Times(c.keypoints, r.keypoint);
     case kDescriptors:
       return Times(c.keypoints, kDescriptorSize);
     case kKfPoints:
       return Times(c.keypoints, 8);
     case kBow:
-      return Times(c.bow_entries, kBowEntrySize);
+      return Times(c.bow_entries, r.bow_entry);
     case kFeatureVectors:
       return Plus(Times(c.feature_vector_groups, kFvGroupSize),
                   Times(c.feature_vector_indices, kFvIndexSize));
@@ -151,7 +163,7 @@ uint64_t ExpectedSectionSize(int section, const MapCounts& c) {
     case kMapPoints:
       return Times(c.map_points, kMapPointRecordSize);
     case kObservations:
-      return Times(c.observations, kObservationSize);
+      return Times(c.observations, r.observation);
   }
   return 0;
 }
@@ -203,16 +215,17 @@ void WriteMeta(const MapData& map, const MapCounts& c, uint8_t* p) {
   }
 }
 
+// A keypoint record of format 2.0 (MapKeypoint's layout; the padding after
+// the octave zero, as `p` comes).
 void WriteKeypoint(const MapKeypoint& k, uint8_t* p) {
   Store<float>(p + 0, k.pixel_x);
   Store<float>(p + 4, k.pixel_y);
   Store<float>(p + 8, k.undistorted_x);
   Store<float>(p + 12, k.undistorted_y);
   Store<float>(p + 16, k.angle_deg);
-  Store<float>(p + 20, k.response);
-  Store<float>(p + 24, k.depth);
-  Store<float>(p + 28, k.u_right);
-  p[32] = k.octave;
+  p[20] = k.octave;
+  Store<float>(p + 24, k.response);
+  Store<float>(p + 28, k.depth);
 }
 
 void WritePose(const MapPose& T, uint8_t* p) {
@@ -267,7 +280,7 @@ MapLayout LayOut(const MapData& map) {
     part.counts = CountMap(*m);
     part.size[kMeta] = kMetaFixedSize + m->vocabulary.name.size() + m->metadata.size();
     for (int i = kKeyframes; i < kNumSections; ++i) {
-      part.size[i] = ExpectedSectionSize(i, part.counts);
+      part.size[i] = ExpectedSectionSize(i, part.counts, kRecordSizes2);
     }
     for (int i = 0; i < kNumSections; ++i) {
       part.offset[i] = AlignUp(l.payload_size, SectionAlignment(i));
@@ -385,7 +398,9 @@ void EncodeSection(const MapData& map, int section, PayloadWriter* w) {
       return EncodeKeyframeTable(map, w);
     case kKeypoints:
       return each([&](const KeyFrameRecord& kf) {
-        for (const MapKeypoint& k : kf.keypoints) WriteKeypoint(k, w->Record(kKeypointRecordSize));
+        for (const MapKeypoint& k : kf.keypoints) {
+          WriteKeypoint(k, w->Record(kRecordSizes2.keypoint));
+        }
       });
     case kDescriptors:
       return each([&](const KeyFrameRecord& kf) {
@@ -398,9 +413,9 @@ void EncodeSection(const MapData& map, int section, PayloadWriter* w) {
     case kBow:
       return each([&](const KeyFrameRecord& kf) {
         for (const auto& [word, value] : kf.bow) {
-          uint8_t* r = w->Record(kBowEntrySize);
+          uint8_t* r = w->Record(kRecordSizes2.bow_entry);
           Store<uint32_t>(r, word);
-          Store<double>(r + 8, value);
+          Store<double>(r + 4, value);
         }
       });
     case kFeatureVectors:
@@ -434,7 +449,7 @@ void EncodeSection(const MapData& map, int section, PayloadWriter* w) {
     case kObservations:
       for (const MapPointRecord& mp : map.map_points) {
         for (const auto& [kf, index] : mp.observations) {
-          uint8_t* r = w->Record(kObservationSize);
+          uint8_t* r = w->Record(kRecordSizes2.observation);
           Store<uint64_t>(r, kf);
           Store<uint32_t>(r + 8, index);
         }
@@ -448,14 +463,12 @@ struct EncodedHeader {
   MapFileInfo info;
 };
 
-// Streams the payload laid out as `layout` to `sink`; the header. A map
-// with other maps is format 1.1, one without 1.0 (the same bytes as before
-// 1.1).
+// Streams the payload laid out as `layout` to `sink`; the header (format
+// 2.0, with or without other maps).
 EncodedHeader EncodeWith(const MapLayout& layout, PayloadSink sink) {
   PayloadWriter w(std::move(sink));
   EncodedHeader out;
-  FormatSpec format = kMapFormat;
-  if (layout.parts.size() > 1) format.minor = 1;
+  const FormatSpec format = kMapFormat;
   out.info.major = format.major;
   out.info.minor = format.minor;
   out.info.file_size = layout.header_size + layout.payload_size;
@@ -546,6 +559,7 @@ struct ParsedHeader {
   MapFileInfo info;
   std::span<const uint8_t> payload;
   uint64_t payload_checksum = 0;
+  RecordSizes sizes = kRecordSizes2;  // Of info.major.
 };
 
 std::string SanitizedName(const uint8_t* p) {
@@ -566,12 +580,15 @@ ParsedHeader ParseHeader(std::span<const uint8_t> file, const std::string& sourc
                     " bytes, shorter than a map header");
   }
   const uint16_t major = Load<uint16_t>(file.data() + 8);
-  if (major != kMapFormat.major) {
+  if (major != 1 && major != kMapFormat.major) {
     throw DataError(source + ": format major version " + std::to_string(major) +
-                    ", this build reads " + std::to_string(kMapFormat.major));
+                    ", this build reads 1 and " + std::to_string(kMapFormat.major));
   }
-  const BinaryHeaderView view = ParseBinaryHeader(file, kMapFormat, source);
+  FormatSpec spec = kMapFormat;
+  spec.major = major;
+  const BinaryHeaderView view = ParseBinaryHeader(file, spec, source);
   ParsedHeader h;
+  h.sizes = RecordSizesOf(major);
   h.info.major = view.major;
   h.info.minor = view.minor;
   h.info.file_size = file.size();
@@ -763,15 +780,16 @@ void ParseKeyframeRecord(const uint8_t* r, KeyFrameRecord* out) {
   kf.parent = Load<uint64_t>(r + 80);
 }
 
-// A keypoint record is a MapKeypoint's bytes (little-endian host), copied
-// whole; the 3 bytes after the octave are padding (0 in the file).
-static_assert(sizeof(MapKeypoint) == kKeypointRecordSize && alignof(MapKeypoint) == 4);
+// A keypoint record of format 2.0 is a MapKeypoint's bytes (little-endian
+// host), viewed in place; the 3 bytes after the octave are padding (0 in
+// the file).
+static_assert(sizeof(MapKeypoint) == 32 && alignof(MapKeypoint) == 4);
 static_assert(offsetof(MapKeypoint, pixel_x) == 0 && offsetof(MapKeypoint, pixel_y) == 4 &&
               offsetof(MapKeypoint, undistorted_x) == 8 &&
               offsetof(MapKeypoint, undistorted_y) == 12 &&
-              offsetof(MapKeypoint, angle_deg) == 16 && offsetof(MapKeypoint, response) == 20 &&
-              offsetof(MapKeypoint, depth) == 24 && offsetof(MapKeypoint, u_right) == 28 &&
-              offsetof(MapKeypoint, octave) == 32);
+              offsetof(MapKeypoint, angle_deg) == 16 && offsetof(MapKeypoint, octave) == 20 &&
+              offsetof(MapKeypoint, response) == 24 && offsetof(MapKeypoint, depth) == 28);
+static_assert(std::is_trivially_copyable_v<MapKeypoint>);
 static_assert(sizeof(OrbDescriptor) == kDescriptorSize);
 
 // Copies `count` entries of `size` bytes at `*p` into `out` (trivially
@@ -803,24 +821,46 @@ RecordArray<T> EntriesAt(const uint8_t** p, uint32_t count,
 }
 
 // Reads `count` records of `size` bytes at `*p`, each a First at byte 0 and
-// a Second at byte 8 (bag-of-words entries, connections), and moves `*p`
-// past them.
+// a Second at byte `second_at` (bag-of-words entries, connections), and
+// moves `*p` past them.
 template <typename First, typename Second>
-void ParsePairs(const uint8_t** p, uint32_t count, size_t size,
+void ParsePairs(const uint8_t** p, uint32_t count, size_t size, size_t second_at,
                 std::vector<std::pair<First, Second>>* out) {
   out->resize(count);
   for (auto& [first, second] : *out) {
     first = Load<First>(*p);
-    second = Load<Second>(*p + 8);
+    second = Load<Second>(*p + second_at);
     *p += size;
   }
+}
+
+// The `count` keypoint records of format 1.x at `*p` (36 bytes: the floats
+// pixel x, y, undistorted x, y, angle, response, depth, u_right, then the
+// octave) copied; moves `*p` past them. u_right is dropped (it follows from
+// the depth).
+RecordArray<MapKeypoint> KeypointsOfFormat1(const uint8_t** p, uint32_t count) {
+  std::vector<MapKeypoint> out(count);
+  for (MapKeypoint& k : out) {
+    const uint8_t* r = *p;
+    k.pixel_x = Load<float>(r + 0);
+    k.pixel_y = Load<float>(r + 4);
+    k.undistorted_x = Load<float>(r + 8);
+    k.undistorted_y = Load<float>(r + 12);
+    k.angle_deg = Load<float>(r + 16);
+    k.response = Load<float>(r + 20);
+    k.depth = Load<float>(r + 24);
+    k.octave = r[32];
+    *p += kRecordSizes1.keypoint;
+  }
+  return out;
 }
 
 // Fills one section's entries of every keyframe, in keyframe order (the
 // counts were checked against the section's size before); keypoints,
 // descriptors and map point ids view `mapping` when it is not null.
 void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const MapCounts& c,
-                          const uint8_t* table, const std::shared_ptr<const void>& mapping,
+                          const RecordSizes& sizes, const uint8_t* table,
+                          const std::shared_ptr<const void>& mapping,
                           std::vector<KeyFrameRecord>* keyframes) {
   const uint8_t* p = bytes.data();
   const uint8_t* indices = p + kFvGroupSize * c.feature_vector_groups;
@@ -830,7 +870,9 @@ void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const Map
     const KeyframeCounts n = CountsOf(table + kKeyframeRecordSize * i);
     switch (section) {
       case kKeypoints:
-        kf.keypoints = EntriesAt<MapKeypoint>(&p, n.keypoints, mapping);
+        kf.keypoints = sizes.keypoint == sizeof(MapKeypoint)
+                           ? EntriesAt<MapKeypoint>(&p, n.keypoints, mapping)
+                           : KeypointsOfFormat1(&p, n.keypoints);
         break;
       case kDescriptors:
         kf.descriptors = EntriesAt<OrbDescriptor>(&p, n.keypoints, mapping);
@@ -839,7 +881,7 @@ void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const Map
         kf.map_point_ids = EntriesAt<uint64_t>(&p, n.keypoints, mapping);
         break;
       case kBow:
-        ParsePairs(&p, n.bow, kBowEntrySize, &kf.bow);
+        ParsePairs(&p, n.bow, sizes.bow_entry, sizes.bow_entry - sizeof(double), &kf.bow);
         break;
       case kFeatureVectors:
         kf.feature_vector.resize(n.groups);
@@ -850,16 +892,18 @@ void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const Map
         }
         break;
       case kGraph:
-        ParsePairs(&p, n.connections, kConnectionSize, &kf.connections);
+        ParsePairs(&p, n.connections, kConnectionSize, 8, &kf.connections);
         CopyEntries(&loops, n.loops, kLoopEdgeSize, &kf.loop_edges);
         break;
     }
   }
 }
 
-// Parses the map point of record `r`, whose observations start at
-// `observations`; returns the end of its observations.
-const uint8_t* ParseMapPoint(const uint8_t* r, const uint8_t* observations, MapPointRecord* out) {
+// Parses the map point of record `r`, whose observations (records of
+// `observation_size` bytes) start at `observations`; returns the end of its
+// observations.
+const uint8_t* ParseMapPoint(const uint8_t* r, const uint8_t* observations, size_t observation_size,
+                             MapPointRecord* out) {
   MapPointRecord& mp = *out;
   mp.id = Load<uint64_t>(r + 0);
   for (int k = 0; k < 3; ++k) {
@@ -876,18 +920,19 @@ const uint8_t* ParseMapPoint(const uint8_t* r, const uint8_t* observations, MapP
   const uint32_t n = Load<uint32_t>(r + 128);
   mp.observations.resize(n);
   for (uint32_t k = 0; k < n; ++k) {
-    mp.observations[k] = {Load<uint64_t>(observations + kObservationSize * k),
-                          Load<uint32_t>(observations + kObservationSize * k + 8)};
+    mp.observations[k] = {Load<uint64_t>(observations + observation_size * k),
+                          Load<uint32_t>(observations + observation_size * k + 8)};
   }
-  return observations + kObservationSize * n;
+  return observations + observation_size * n;
 }
 
 // Every count checked against the size of its section, then the per-record
 // counts against the totals, before anything is allocated: a corrupt count
 // cannot cause a huge allocation.
-void CheckCounts(const Sections& s, const MapCounts& c, const std::string& source) {
+void CheckCounts(const Sections& s, const MapCounts& c, const RecordSizes& sizes,
+                 const std::string& source) {
   for (int i = kKeyframes; i < kNumSections; ++i) {
-    const uint64_t expected = ExpectedSectionSize(i, c);
+    const uint64_t expected = ExpectedSectionSize(i, c, sizes);
     if (s[i].size() != expected) {
       throw DataError(source + ": " + SectionText(i) + ": " + std::to_string(s[i].size()) +
                       " bytes, but the counts in section meta need " +
@@ -940,7 +985,8 @@ struct MappedSource {
 // section it does not view is dropped from memory once parsed, so the
 // records, the viewed sections and one more are resident at once. Every
 // read stays within its section by CheckCounts.
-void ParseRecords(const Sections& s, const MapCounts& c, const MappedSource& source, MapData* map) {
+void ParseRecords(const Sections& s, const MapCounts& c, const RecordSizes& sizes,
+                  const MappedSource& source, MapData* map) {
   const auto prefault = [&](int i) {
     if (source.file != nullptr) source.file->Prefault(s[i]);
   };
@@ -955,7 +1001,7 @@ void ParseRecords(const Sections& s, const MapCounts& c, const MappedSource& sou
   }
   for (const int i : {kKeypoints, kDescriptors, kKfPoints, kBow, kFeatureVectors, kGraph}) {
     prefault(i);
-    ParseKeyframeEntries(i, s[i], c, table, source.ViewedFile(), &map->keyframes);
+    ParseKeyframeEntries(i, s[i], c, sizes, table, source.ViewedFile(), &map->keyframes);
     release(i);
   }
   release(kKeyframes);
@@ -965,7 +1011,7 @@ void ParseRecords(const Sections& s, const MapCounts& c, const MappedSource& sou
   map->map_points.resize(c.map_points);
   for (uint64_t i = 0; i < c.map_points; ++i) {
     observations = ParseMapPoint(s[kMapPoints].data() + kMapPointRecordSize * i, observations,
-                                 &map->map_points[i]);
+                                 sizes.observation, &map->map_points[i]);
   }
   release(kMapPoints);
   release(kObservations);
@@ -982,11 +1028,12 @@ void ReleaseCopiedSections(const std::vector<Sections>& parts, const MappedSourc
 }
 
 // One map's checked sections parsed (`where` names it in errors).
-MapData ParsePart(const Sections& s, const std::string& where, const MappedSource& mapping) {
+MapData ParsePart(const Sections& s, const RecordSizes& sizes, const std::string& where,
+                  const MappedSource& mapping) {
   MapCounts c;
   MapData map = ParseMeta(s[kMeta], where, &c);
-  CheckCounts(s, c, where);
-  ParseRecords(s, c, mapping, &map);
+  CheckCounts(s, c, sizes, where);
+  ParseRecords(s, c, sizes, mapping, &map);
   return map;
 }
 
@@ -994,7 +1041,7 @@ MapData ParsePart(const Sections& s, const std::string& where, const MappedSourc
 MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFileInfo* info,
                  const MappedSource& mapping) {
   const ParsedHeader h = ParseHeader(file, source);
-  // The known sections of the map and of its other maps (format 1.1, while
+  // The known sections of the map and of its other maps (since 1.1, while
   // "<k>:meta" is listed), and the payload's checksum over all of them.
   std::vector<Sections> parts = {FoundSections(h, source)};
   for (size_t k = 1; k <= kMaxOtherMaps && FindSection(h, kMeta, source, k) != nullptr; ++k) {
@@ -1009,10 +1056,10 @@ MapData ParseAll(std::span<const uint8_t> file, const std::string& source, MapFi
   std::future<bool> intact = std::async(std::launch::async, [&h] { return PayloadIntact(h); });
   MapData map;
   try {
-    map = ParsePart(parts[0], source, mapping);
+    map = ParsePart(parts[0], h.sizes, source, mapping);
     for (size_t k = 1; k < parts.size(); ++k) {
       map.other_maps.push_back(
-          ParsePart(parts[k], source + " (other map " + std::to_string(k) + ")", mapping));
+          ParsePart(parts[k], h.sizes, source + " (other map " + std::to_string(k) + ")", mapping));
     }
     ValidateMapData(map, source);
   } catch (const DataError&) {
@@ -1291,7 +1338,7 @@ void MapValidator::CheckKeyFrameContent(const KeyFrameRecord& kf) {
     const MapKeypoint& p = kf.keypoints[i];
     if (!(std::isfinite(p.pixel_x) && std::isfinite(p.pixel_y) && std::isfinite(p.undistorted_x) &&
           std::isfinite(p.undistorted_y) && std::isfinite(p.angle_deg) &&
-          std::isfinite(p.response) && std::isfinite(p.depth) && std::isfinite(p.u_right))) {
+          std::isfinite(p.response) && std::isfinite(p.depth))) {
       Fail(k + " keypoint " + std::to_string(i) + ": a value is not finite");
     }
     if (p.octave >= orb_levels) {

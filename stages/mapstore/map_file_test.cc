@@ -136,7 +136,7 @@ TEST(MapFile, RoundTripEqual) {
   MapFileInfo info;
   const MapData back = ParseMap(EncodeMap(map), "map.rrm", &info);
   ExpectMapsEqual(map, back);
-  EXPECT_EQ(info.major, 1);
+  EXPECT_EQ(info.major, 2);
   EXPECT_EQ(info.minor, 0);
   ASSERT_EQ(info.sections.size(), 10u);
   EXPECT_EQ(info.sections[0].name, "meta");
@@ -297,8 +297,8 @@ TEST(MapFile, RejectsBadMagic) {
 
 TEST(MapFile, RejectsFutureMajor) {
   std::vector<uint8_t> file = EncodeMap(MakeTestMap(8));
-  StoreLittleEndian<uint16_t>(file.data() + 8, 2);
-  ExpectParseError(file, "map.rrm: format major version 2, this build reads 1");
+  StoreLittleEndian<uint16_t>(file.data() + 8, 3);
+  ExpectParseError(file, "map.rrm: format major version 3, this build reads 1 and 2");
 }
 
 TEST(MapFile, AcceptsNewerMinorWithUnknownSectionAndFields) {
@@ -346,7 +346,8 @@ TEST(MapFile, RejectsFlippedBitInEachSection) {
   }
 }
 
-// Format 1.1: maps kept beside the map (an atlas session that never merged).
+// Since format 1.1: maps kept beside the map (an atlas session that never
+// merged).
 MapData MapWithOtherMaps() {
   MapData map = MakeTestMap(11);
   map.other_maps.push_back(MakeTestMap(12));
@@ -354,11 +355,11 @@ MapData MapWithOtherMaps() {
   return map;
 }
 
-TEST(MapFile, OtherMapsRoundTripAsFormatOneOne) {
+TEST(MapFile, OtherMapsRoundTrip) {
   const MapData map = MapWithOtherMaps();
   MapFileInfo info;
   const MapData back = ParseMap(EncodeMap(map), "atlas.rrm", &info);
-  EXPECT_EQ(info.minor, 1);
+  EXPECT_EQ(info.major, 2);
   ASSERT_EQ(info.sections.size(), 30u);
   EXPECT_EQ(info.sections[10].name, "1:meta");
   EXPECT_EQ(info.sections[23].name, "2:desc");
@@ -367,10 +368,62 @@ TEST(MapFile, OtherMapsRoundTripAsFormatOneOne) {
   ASSERT_EQ(back.other_maps.size(), 2u);
   ExpectMapsEqual(map.other_maps[0], back.other_maps[0]);
   ExpectMapsEqual(map.other_maps[1], back.other_maps[1]);
-  // A map alone stays 1.0, byte for byte as before 1.1.
   MapData alone = map;
   alone.other_maps.clear();
-  EXPECT_EQ(ReadMapFileInfo(EncodeMap(alone), "alone.rrm").minor, 0);
+  EXPECT_EQ(ReadMapFileInfo(EncodeMap(alone), "alone.rrm").sections.size(), 10u);
+}
+
+// Format 2.0's records: a keypoint is a MapKeypoint's 32 bytes (read in
+// place from a mapped file), a bag-of-words entry (word, value) and an
+// observation (keyframe, keypoint) 12 bytes each, packed.
+TEST(MapFile, FormatTwoRecordSizes) {
+  const MapData map = MakeTestMap(21);
+  uint64_t keypoints = 0, bow_entries = 0, observations = 0;
+  for (const KeyFrameRecord& kf : map.keyframes) {
+    keypoints += kf.keypoints.size();
+    bow_entries += kf.bow.size();
+  }
+  for (const MapPointRecord& p : map.map_points) observations += p.observations.size();
+  const std::vector<uint8_t> file = EncodeMap(map);
+  EXPECT_EQ(Section(file, "keypoints").size, 32 * keypoints);
+  EXPECT_EQ(Section(file, "bow").size, 12 * bow_entries);
+  EXPECT_EQ(Section(file, "observations").size, 12 * observations);
+  const MapSectionInfo kp = Section(file, "keypoints");
+  const MapKeypoint& first = map.keyframes[0].keypoints[0];
+  const uint8_t* record = file.data() + HeaderSize(file) + kp.offset;
+  EXPECT_EQ(LoadLittleEndian<float>(record + 16), first.angle_deg);
+  EXPECT_EQ(record[20], first.octave);
+  EXPECT_EQ(LoadLittleEndian<float>(record + 28), first.depth);
+  const MapSectionInfo bow = Section(file, "bow");
+  const auto& [word, value] = map.keyframes[0].bow[1];
+  const uint8_t* entry = file.data() + HeaderSize(file) + bow.offset + 12;
+  EXPECT_EQ(LoadLittleEndian<uint32_t>(entry), word);
+  EXPECT_EQ(LoadLittleEndian<double>(entry + 4), value);
+}
+
+// Files of format 1.0 and 1.1 (stages/mapstore/testdata: MakeTestMap(7),
+// and with MakeTestMap(8) of 5 keyframes and 30 points beside it, written
+// by the 1.x writer of 2026-12-05) read as the maps they hold, u_right
+// dropped; saved again they are format 2.0 and smaller.
+TEST(MapFile, ReadsFormatOneFiles) {
+  const std::filesystem::path dir = testing::SourceDir() / "stages/mapstore/testdata";
+  MapFileInfo info;
+  const MapData one = ReadMapFile(dir / "format-1.0.rrm", &info);
+  EXPECT_EQ(info.major, 1);
+  EXPECT_EQ(info.minor, 0);
+  ExpectMapsEqual(MakeTestMap(7), one);
+  const MapData atlas = ReadMapFile(dir / "format-1.1.rrm", &info);
+  EXPECT_EQ(info.minor, 1);
+  ExpectMapsEqual(MakeTestMap(7), atlas);
+  ASSERT_EQ(atlas.other_maps.size(), 1u);
+  TestMapOptions o;
+  o.keyframes = 5;
+  o.map_points = 30;
+  ExpectMapsEqual(MakeTestMap(8, o), atlas.other_maps[0]);
+  const std::vector<uint8_t> again = EncodeMap(one);
+  EXPECT_EQ(ReadMapFileInfo(again, "again.rrm").major, 2);
+  EXPECT_LT(again.size(), std::filesystem::file_size(dir / "format-1.0.rrm"));
+  ExpectMapsEqual(one, ParseMap(again, "again.rrm"));
 }
 
 TEST(MapFile, RejectsFlippedBitInAnOtherMapsSection) {

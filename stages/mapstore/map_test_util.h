@@ -60,7 +60,6 @@ inline MapData MakeTestMap(uint32_t seed, const TestMapOptions& o = {}) {
       p.angle_deg = pixel(rng) * 0.5f;
       p.response = pixel(rng) * 0.01f;
       p.depth = k % 5 == 0 ? 0.0f : 0.5f + pixel(rng) * 0.01f;
-      p.u_right = p.depth > 0 ? p.undistorted_x - 40.0f / p.depth : -1.0f;
       p.octave = static_cast<uint8_t>(rng() % 8);
       for (auto& b : kf.descriptors[k].bytes) b = static_cast<uint8_t>(rng());
     }

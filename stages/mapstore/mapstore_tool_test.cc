@@ -106,7 +106,7 @@ TEST_F(MapstoreTool, Info) {
   auto r = RunTool("mapstore", "info " + (dir_ / "a.rrm").string() + " 2>&1");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   for (const std::string text :
-       {"format: rrslam.map 1.0", "sections:", "keyframes: 12", "map_points: 100", "keypoints: 600",
+       {"format: rrslam.map 2.0", "sections:", "keyframes: 12", "map_points: 100", "keypoints: 600",
         "loop_edges: 1", "tree: 0123456789abcdef", "name: voc.rrv", "bow_levels_up: 4",
         "mapstore test", "structure: ok", "descriptors"}) {
     EXPECT_NE(r.output.find(text), std::string::npos) << text << "\n" << r.output;

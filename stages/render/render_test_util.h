@@ -93,7 +93,6 @@ inline MapData MakeKnownMap(const std::vector<Rigid3d>& T_world_cam,
       keypoint.pixel_x = keypoint.undistorted_x = static_cast<float>(u);
       keypoint.pixel_y = keypoint.undistorted_y = static_cast<float>(v);
       keypoint.depth = static_cast<float>(p.z());
-      keypoint.u_right = static_cast<float>(u - camera.bf / p.z());
       mp.observations.push_back({kf.id, static_cast<uint32_t>(kf.keypoints.size())});
       kf.keypoints.push_back(keypoint);
       kf.descriptors.emplace_back();

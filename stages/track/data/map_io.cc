@@ -106,7 +106,6 @@ MapData ToMapData(const Map& map, const MapCamera& camera, const Vocabulary& voc
       m.angle_deg = k.angle_deg;
       m.response = k.response;
       m.depth = k.depth;
-      m.u_right = f.u_right[i];
       m.octave = k.octave;
       const MapPoint* p = kf->map_point(i);
       if (p != nullptr && !p->bad() && point_kept[p->id()] &&
