@@ -111,7 +111,7 @@ MapData JoinMaps(MapData a, MapData b, const Rigid3d& T_a_b, uint64_t a_keyframe
   std::move(b.map_points.begin(), b.map_points.end(), std::back_inserter(a.map_points));
   a.next_keyframe_id = next_keyframe;
   a.next_map_point_id = next_point;
-  // Maps kept beside b (format 1.1) stay beside the joined map.
+  // Maps kept beside b (since format 1.1) stay beside the joined map.
   std::move(b.other_maps.begin(), b.other_maps.end(), std::back_inserter(a.other_maps));
   if (a.other_maps.size() > kMaxOtherMaps) {
     throw DataError(source + ": the joined map would keep " + std::to_string(a.other_maps.size()) +

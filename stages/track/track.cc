@@ -260,7 +260,7 @@ struct LoadedMap {
   uint64_t next_map_point_id = 0;
   size_t keyframes = 0;
   size_t map_points = 0;
-  size_t other_maps = 0;  // Kept beside it in the file (format 1.1).
+  size_t other_maps = 0;  // Kept beside it in the file (since map format 1.1).
 };
 
 // A map file's identity: XXH3-64 of its sections' checksums (the content,
@@ -564,7 +564,7 @@ class TrackSession {
     loaded_.next_map_point_id = data.next_map_point_id;
     loaded_.keyframes = data.keyframes.size();
     loaded_.map_points = data.map_points.size();
-    // Maps kept beside it (format 1.1) are not tracked in; saved again.
+    // Maps kept beside it (since map format 1.1) are not tracked in; saved again.
     carried_maps_ = std::move(data.other_maps);
     loaded_.other_maps = carried_maps_.size();
     LoadMapData(std::move(data), *sensor_, vocabulary_, bow_levels_up_, &map_, database_.get(),
@@ -872,7 +872,7 @@ class TrackSession {
     }
     const std::string path = options_.save_map.string();
     // A new map that never met the loaded one is saved beside it, as another
-    // map of the file (format 1.1), in its own world frame.
+    // map of the file (since map format 1.1), in its own world frame.
     const Map& saved = LoadedObjectsMap();
     if (&saved != &map_) {
       spdlog::warn(
@@ -1168,7 +1168,7 @@ class TrackSession {
   std::unique_ptr<LoopCloser> closer_;
   MapCamera camera_;
   LoadedMap loaded_;
-  // The loaded file's other maps (format 1.1), until WriteMap saves them.
+  // The loaded file's other maps (since map format 1.1), until WriteMap saves them.
   std::vector<MapData> carried_maps_;
   int64_t new_map_frame_ = -1;  // Sequence index of the last frame lost before a new map.
   double new_map_timestamp_ = 0;
