@@ -857,7 +857,8 @@ RecordArray<MapKeypoint> KeypointsOfFormat1(const uint8_t** p, uint32_t count) {
 
 // Fills one section's entries of every keyframe, in keyframe order (the
 // counts were checked against the section's size before); keypoints,
-// descriptors and map point ids view `mapping` when it is not null.
+// descriptors and map point ids view `mapping` when it is not null (the
+// keypoints of a 1.x file, of another layout, are copied).
 void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const MapCounts& c,
                           const RecordSizes& sizes, const uint8_t* table,
                           const std::shared_ptr<const void>& mapping,

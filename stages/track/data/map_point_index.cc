@@ -16,10 +16,11 @@ namespace rrslam {
 // One hash table: the key of a descriptor is `bits` of its 256 bits; the
 // rows of each key stored contiguously, in key order (rows[offsets[r] ..
 // offsets[r + 1]) for the r-th key present). A key is found by its rank
-// among the keys present: one bit per possible key (2^20 keys: 128 kB), and
-// with each 64 of them the number set before. Most of a search's probes are
-// of absent keys, answered by the bitmap from the cache; a present key costs
-// one read of `offsets` (4 bytes a key) before its rows.
+// among the keys present: one bit per possible key and, with each 64 of
+// them, the number set before (16 bytes a block: 256 kB for 2^20 keys).
+// Most of a search's probes are of absent keys, answered by the blocks from
+// the cache; a present key costs one read of `offsets` (4 bytes a key)
+// before its rows.
 struct MapPointIndex::Table {
   std::vector<int> bits;
   // Key() a byte at a time: the descriptor bytes holding key bits, and for
