@@ -8,8 +8,9 @@
 # 500, 600, ... of the base map's sequence, 100 frames each: first pose
 # after process start, every relocalization attempt, tracking median, peak
 # memory) and one run mapping on it from frame 500, 300 frames (restore
-# mapping: local mapping's median over the 5 keyframes they add), and in process relocalization attempts on every
-# 10th of frames 500-999 (the p95 goal's figure). Goals at 10k keyframes: load <= 1.5 s, peak memory
+# mapping: local mapping's median over the 5 keyframes they add), and in
+# process relocalization attempts on every 10th of frames 500-999 (the p95
+# goal's figure). Goals at 10k keyframes: load <= 1.5 s, peak memory
 # <= 2x the file, save <= 2 s, verify <= 1 s, first pose <= 2 s,
 # relocalization p95 <= 30 ms, tracking median <= 1.2x and local mapping
 # <= 1.5x the base map's (measured by the same runs on the base map, each

@@ -18,9 +18,10 @@
 // after process start, every relocalization attempt, tracking median, peak
 // memory; copy 0 of a composed map is the base map, so the frames relocalize
 // there), and one run mapping on it (restore mapping, --mapping-frames
-// frames: local mapping's median per keyframe), each run on a composed map just after the same run
-// on the base map; then, in process, relocalization attempts on every 10th of 500 frames
-// (relocalization_sweep.h). Goals at 10k keyframes (issue 35): load
+// frames: local mapping's median per keyframe), each run on a composed map
+// just after the same run on the base map; then, in process, relocalization
+// attempts on every 10th of 500 frames (relocalization_sweep.h). Goals at 10k keyframes (issue 35):
+// load
 // <= 1.5 s whole process, peak memory <= 2x the file size, save <= 2 s,
 // verify <= 1 s, first pose <= 2 s, relocalization attempt p95 <= 30 ms (in
 // process), tracking median <= 1.2x the base map's, local mapping <= 1.5x

@@ -2,9 +2,9 @@
 // attempt time (median, p95)"): a cold start makes one attempt per process,
 // so its three starts give a p95 of three values. Here the map is loaded
 // once (TrackedMap), its map-point index built, and every `stride`-th frame
-// of `frames` frames relocalized from scratch, as rrslam-track's tracker
-// times an attempt (the frame's bag of words and Relocalizer::Relocalize,
-// with rrslam-track's default options), one at a time with nothing beside.
+// of `frames` frames relocalized from scratch as rrslam-track's tracker
+// makes and times an attempt (Relocalizer::RelocalizeTimed, with
+// rrslam-track's default options), one at a time with nothing beside.
 #pragma once
 
 #include <string>

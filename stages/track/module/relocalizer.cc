@@ -381,6 +381,18 @@ KeyFrame* Relocalizer::Relocalize(Frame* frame, SolveCounts* solves, Relocalizat
   return nullptr;
 }
 
+KeyFrame* Relocalizer::RelocalizeTimed(Frame* frame, const Vocabulary& vocabulary,
+                                       int bow_levels_up, SolveCounts* solves,
+                                       RelocalizationAttempt* attempt, bool has_pose) {
+  const auto start = SteadyClock::now();
+  if (options_.method != RelocalizationMethod::kDirect) {
+    frame->ComputeBow(vocabulary, bow_levels_up);
+  }
+  KeyFrame* keyframe = Relocalize(frame, solves, attempt, has_pose);
+  attempt->ms = MillisecondsSince(start);
+  return keyframe;
+}
+
 int Relocalizer::OptimizeInliers(Frame* frame, SolveCounts* solves) const {
   const int good = OptimizeFramePose(sensor_, frame, {}, solves);
   for (size_t i = 0; i < frame->size(); ++i) {

@@ -190,6 +190,13 @@ class Relocalizer {
   // direct stage after the BoW stage).
   KeyFrame* Relocalize(Frame* frame, SolveCounts* solves = nullptr,
                        RelocalizationAttempt* attempt = nullptr, bool has_pose = false);
+  // An attempt as the tracker makes and times it: the frame's bag of words
+  // (`vocabulary`, feature vector `bow_levels_up` levels up) computed when
+  // the method has the BoW stage, then Relocalize(); `attempt->ms` (not null)
+  // is the whole of both.
+  KeyFrame* RelocalizeTimed(Frame* frame, const Vocabulary& vocabulary, int bow_levels_up,
+                            SolveCounts* solves, RelocalizationAttempt* attempt,
+                            bool has_pose = false);
   // Builds the direct stage's map-point index now, unless the method has no
   // direct stage or it is current (waiting first for a build started by
   // PrepareIndexInBackground); returns the ms this call spent waiting and

@@ -7,7 +7,6 @@
 #include <cstdlib>
 #include <map>
 
-#include "common/clock.h"
 #include "stages/track/data/depth_evidence.h"
 #include "stages/track/optimize/optimizer.h"
 
@@ -432,13 +431,9 @@ bool Tracker::TrackReferenceKeyFrame() {
 }
 
 bool Tracker::Relocalize(bool has_pose) {
-  const auto start = SteadyClock::now();
-  if (options_.relocalization.method != RelocalizationMethod::kDirect) {
-    current_.ComputeBow(vocabulary_, options_.bow_levels_up);
-  }
   RelocalizationAttempt attempt;
-  KeyFrame* keyframe = relocalizer_.Relocalize(&current_, &pose_solves_, &attempt, has_pose);
-  attempt.ms = MillisecondsSince(start);
+  KeyFrame* keyframe = relocalizer_.RelocalizeTimed(&current_, vocabulary_, options_.bow_levels_up,
+                                                    &pose_solves_, &attempt, has_pose);
   attempt.timestamp = current_.timestamp();
   relocalization_ms_.push_back(attempt.ms);
   relocalization_attempts_.push_back(attempt);
