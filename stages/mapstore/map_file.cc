@@ -10,11 +10,13 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <future>
 #include <limits>
 #include <memory>
+#include <new>
 #include <stdexcept>
 #include <system_error>
 #include <type_traits>
@@ -26,6 +28,7 @@
 #include "common/formats.h"
 #include "common/heap_reserve.h"
 #include "common/path_check.h"
+#include "stages/mapstore/file_sink.h"
 
 namespace rrslam {
 namespace {
@@ -292,35 +295,52 @@ MapLayout LayOut(const MapData& map) {
   return l;
 }
 
-using PayloadSink = std::function<void(std::span<const uint8_t>)>;
+// Receives the file's bytes at their offsets, a chunk at a time.
+using PayloadSink = std::function<void(uint64_t offset, std::span<const uint8_t>)>;
 
-// The payload in order, through a buffer of kChunkBytes handed to the sink
-// when full; checksums of the payload and of the section being written
-// (padding between sections is zero and belongs to no section).
+// The payload in order, through an aligned buffer that stands for
+// kChunkBytes of the file at a time (file offsets [k kChunkBytes, (k + 1)
+// kChunkBytes); the bytes of the first chunk before the payload are the
+// header's place, zero), handed to the sink when full: every piece but the
+// last is an aligned whole that FileSink writes directly. Checksums of the
+// payload and of the section being written (padding between sections is
+// zero and belongs to no section).
 class PayloadWriter {
  public:
   static constexpr size_t kChunkBytes = size_t{4} << 20;
+  static_assert(kChunkBytes % FileSink::kAlignment == 0);
 
-  explicit PayloadWriter(PayloadSink sink) : sink_(std::move(sink)), chunk_(kChunkBytes) {}
+  // The payload starts at file offset `payload_offset`.
+  PayloadWriter(uint64_t payload_offset, PayloadSink sink)
+      : sink_(std::move(sink)),
+        chunk_(static_cast<uint8_t*>(std::aligned_alloc(FileSink::kAlignment, kBufferBytes))),
+        payload_offset_(payload_offset) {
+    if (chunk_ == nullptr) throw std::bad_alloc();
+    base_ = payload_offset - payload_offset % kChunkBytes;
+    fill_ = hashed_ = payload_offset - base_;
+    std::memset(chunk_.get(), 0, fill_);
+  }
 
-  // Zero bytes up to `offset`, then a section starts there.
+  // Zero bytes up to payload offset `offset`, then a section starts there.
   void BeginSection(uint64_t offset) {
-    if (offset < written_ + fill_) throw std::logic_error("EncodeMap: section offsets");
-    Zeros(offset - written_ - fill_);
-    Flush();
+    if (offset < written()) throw std::logic_error("EncodeMap: section offsets");
+    Zeros(offset - written());
+    Hash();
     section_ = StreamingChecksum64();
     section_start_ = offset;
   }
   // The section's checksum; throws unless it took `size` bytes.
   uint64_t EndSection(uint64_t size) {
-    Flush();
-    if (written_ - section_start_ != size) throw std::logic_error("EncodeMap: section size");
+    Hash();
+    if (written() - section_start_ != size) throw std::logic_error("EncodeMap: section size");
     return section_.Digest();
   }
-  // Space for one zeroed record of `size` (<= kChunkBytes) bytes.
+  // Space for one zeroed record of `size` (<= kRecordBytes) bytes: in the
+  // slack after the chunk when it runs past it.
   uint8_t* Record(size_t size) {
-    if (fill_ + size > chunk_.size()) Flush();
-    uint8_t* p = chunk_.data() + fill_;
+    if (size > kRecordBytes) throw std::logic_error("EncodeMap: record size");
+    if (fill_ >= kChunkBytes) Flush();
+    uint8_t* p = chunk_.get() + fill_;
     std::memset(p, 0, size);
     fill_ += size;
     return p;
@@ -328,42 +348,64 @@ class PayloadWriter {
   void Bytes(const void* data, size_t size) {
     const auto* p = static_cast<const uint8_t*>(data);
     while (size > 0) {
-      if (fill_ == chunk_.size()) Flush();
-      const size_t n = std::min(size, chunk_.size() - fill_);
-      std::memcpy(chunk_.data() + fill_, p, n);
+      if (fill_ >= kChunkBytes) Flush();
+      const size_t n = std::min(size, kChunkBytes - fill_);
+      std::memcpy(chunk_.get() + fill_, p, n);
       fill_ += n;
       p += n;
       size -= n;
     }
   }
   void Zeros(uint64_t size) {
-    static constexpr uint8_t kZeros[64] = {};
-    for (; size > 0; size -= std::min<uint64_t>(size, sizeof kZeros)) {
-      Bytes(kZeros, std::min<uint64_t>(size, sizeof kZeros));
+    while (size > 0) {
+      if (fill_ >= kChunkBytes) Flush();
+      const size_t n = std::min<uint64_t>(size, kChunkBytes - fill_);
+      std::memset(chunk_.get() + fill_, 0, n);
+      fill_ += n;
+      size -= n;
     }
   }
   // Pads to `payload_size`, hands over the rest; the payload's checksum.
   uint64_t Finish(uint64_t payload_size) {
-    Zeros(payload_size - written_ - fill_);
-    Flush();
+    Zeros(payload_size - written());
+    Hash();
+    while (fill_ >= kChunkBytes) Flush();
+    if (fill_ > 0) sink_(base_, {chunk_.get(), fill_});
     return payload_.Digest();
   }
 
  private:
-  void Flush() {
-    if (fill_ == 0) return;
-    const std::span<const uint8_t> bytes(chunk_.data(), fill_);
+  static constexpr size_t kRecordBytes = 256;
+  static constexpr size_t kBufferBytes = kChunkBytes + FileSink::kAlignment;  // Slack >= a record.
+  struct Free {
+    void operator()(uint8_t* p) const { std::free(p); }
+  };
+
+  // Payload bytes so far.
+  uint64_t written() const { return base_ + fill_ - payload_offset_; }
+  // The checksums over the bytes since the last call.
+  void Hash() {
+    const std::span<const uint8_t> bytes(chunk_.get() + hashed_, fill_ - hashed_);
     payload_.Update(bytes);
     section_.Update(bytes);
-    sink_(bytes);
-    written_ += fill_;
-    fill_ = 0;
+    hashed_ = fill_;
+  }
+  // The full chunk to the sink; a record that ran past it moves to the front.
+  void Flush() {
+    Hash();
+    sink_(base_, {chunk_.get(), kChunkBytes});
+    base_ += kChunkBytes;
+    fill_ -= kChunkBytes;
+    std::memmove(chunk_.get(), chunk_.get() + kChunkBytes, fill_);
+    hashed_ = fill_;
   }
 
   PayloadSink sink_;
-  std::vector<uint8_t> chunk_;
-  size_t fill_ = 0;
-  uint64_t written_ = 0, section_start_ = 0;
+  std::unique_ptr<uint8_t, Free> chunk_;
+  uint64_t payload_offset_ = 0;
+  uint64_t base_ = 0;  // File offset of chunk_[0].
+  size_t fill_ = 0, hashed_ = 0;
+  uint64_t section_start_ = 0;
   StreamingChecksum64 payload_, section_;
 };
 
@@ -466,7 +508,7 @@ struct EncodedHeader {
 // Streams the payload laid out as `layout` to `sink`; the header (format
 // 2.0, with or without other maps).
 EncodedHeader EncodeWith(const MapLayout& layout, PayloadSink sink) {
-  PayloadWriter w(std::move(sink));
+  PayloadWriter w(layout.header_size, std::move(sink));
   EncodedHeader out;
   const FormatSpec format = kMapFormat;
   out.info.major = format.major;
@@ -507,50 +549,6 @@ EncodedHeader EncodeWith(const MapLayout& layout, PayloadSink sink) {
   if (out.bytes.size() != layout.header_size) throw std::logic_error("EncodeMap: header size");
   return out;
 }
-
-// Writes to a file descriptor it owns, and starts the disk's writeback of
-// each piece as it goes (sync_file_range), so that the fsync of the commit
-// waits for the last pieces only instead of the whole file.
-class FileSink {
- public:
-  FileSink(const std::filesystem::path& file, std::string name) : name_(std::move(name)) {
-    fd_ = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd_ < 0) throw CantCreateError(name_ + ": cannot create " + file.string());
-  }
-  ~FileSink() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  FileSink(const FileSink&) = delete;
-  FileSink& operator=(const FileSink&) = delete;
-
-  void Skip(uint64_t bytes) { at_ += bytes; }
-  void Append(std::span<const uint8_t> bytes) {
-    WriteAt(at_, bytes);
-    // Best effort: where unsupported, the commit's fsync writes it all.
-    ::sync_file_range(fd_, static_cast<off_t>(at_), static_cast<off_t>(bytes.size()),
-                      SYNC_FILE_RANGE_WRITE);
-    at_ += bytes.size();
-  }
-  void WriteAt(uint64_t offset, std::span<const uint8_t> bytes) {
-    size_t done = 0;
-    while (done < bytes.size()) {
-      const ssize_t n = ::pwrite(fd_, bytes.data() + done, bytes.size() - done,
-                                 static_cast<off_t>(offset + done));
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) throw CantCreateError(name_ + ": write failed: " + std::strerror(errno));
-      done += static_cast<size_t>(n);
-    }
-  }
-  void Close() {
-    const int fd = std::exchange(fd_, -1);
-    if (::close(fd) != 0) throw CantCreateError(name_ + ": write failed: " + std::strerror(errno));
-  }
-
- private:
-  int fd_ = -1;
-  std::string name_;
-  uint64_t at_ = 0;
-};
 
 // ---------------------------------------------------------------------------
 // Header and section table
@@ -1082,10 +1080,11 @@ std::vector<uint8_t> EncodeMap(const MapData& map) {
   const MapLayout layout = LayOut(map);
   std::vector<uint8_t> file;
   file.reserve(layout.header_size + layout.payload_size);
-  file.resize(layout.header_size, 0);  // The header, once the checksums are known.
-  const EncodedHeader header = EncodeWith(layout, [&](std::span<const uint8_t> bytes) {
-    file.insert(file.end(), bytes.begin(), bytes.end());
-  });
+  const EncodedHeader header =
+      EncodeWith(layout, [&](uint64_t offset, std::span<const uint8_t> bytes) {
+        file.resize(offset);  // The zeros of the header's place in the first piece.
+        file.insert(file.end(), bytes.begin(), bytes.end());
+      });
   std::memcpy(file.data(), header.bytes.data(), header.bytes.size());
   return file;
 }
@@ -1094,9 +1093,9 @@ MapFileInfo WriteMapFileAt(const std::filesystem::path& file, const MapData& map
                            const std::string& name) {
   const MapLayout layout = LayOut(map);
   FileSink sink(file, name);
-  sink.Skip(layout.header_size);
-  EncodedHeader header =
-      EncodeWith(layout, [&](std::span<const uint8_t> bytes) { sink.Append(bytes); });
+  EncodedHeader header = EncodeWith(layout, [&](uint64_t offset, std::span<const uint8_t> bytes) {
+    sink.WriteAt(offset, bytes);
+  });
   sink.WriteAt(0, header.bytes);
   sink.Close();
   return std::move(header.info);
