@@ -4,7 +4,8 @@
 // once (TrackedMap), its map-point index built, and every `stride`-th frame
 // of `frames` frames relocalized from scratch as rrslam-track's tracker
 // makes and times an attempt (Relocalizer::RelocalizeTimed, with
-// rrslam-track's default options), one at a time with nothing beside.
+// rrslam-track's default options), one at a time with nothing beside, on a
+// thread of their own as rrslam-track's frame loop is.
 #pragma once
 
 #include <string>

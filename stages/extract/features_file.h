@@ -24,7 +24,6 @@
 //   /keypoints/descriptor     (N,32) uint8    ORB descriptor bytes (orb_descriptor.h)
 #pragma once
 
-#include <Eigen/Core>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <span>
@@ -32,19 +31,10 @@
 #include <vector>
 
 #include "common/h5io.h"
+#include "common/keypoint.h"
 #include "common/orb_descriptor.h"
 
 namespace rrslam {
-
-// One ORB keypoint. Pixels are level-0 image coordinates.
-struct Keypoint {
-  Eigen::Vector2f pixel = Eigen::Vector2f::Zero();        // Real (distorted) image.
-  Eigen::Vector2f undistorted = Eigen::Vector2f::Zero();  // Ideal pinhole pixel.
-  float angle_deg = 0;  // Orientation by intensity centroid, [0, 360).
-  uint8_t octave = 0;   // Pyramid level it was detected on.
-  float response = 0;   // Corner score used to rank keypoints.
-  float depth = 0;      // Metres from the paired depth image at `pixel`; 0 = none.
-};
 
 // Identity of one RGB-D frame in a features file.
 struct FrameRecord {

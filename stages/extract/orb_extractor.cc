@@ -511,8 +511,9 @@ void FinishKeypoints(const PinholeCamera& camera, const cv::Mat& depth_metres,
   }
   const bool distorted = !camera.distortion().IsZero();
   for (Keypoint& kp : *keypoints) {
-    kp.undistorted =
-        distorted ? camera.UndistortPixel(kp.pixel.cast<double>()).cast<float>() : kp.pixel;
+    kp.undistorted = distorted
+                         ? Pixel2f(camera.UndistortPixel(kp.pixel.cast<double>()).cast<float>())
+                         : kp.pixel;
     kp.depth = 0;
     if (depth_metres.empty()) continue;
     const long u = std::lround(kp.pixel.x());

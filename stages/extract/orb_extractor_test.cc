@@ -203,7 +203,7 @@ TEST(OrbExtractor, OrientationPointsToTheIntensityCentroid) {
                           Vertex{200, 339, 315}}) {
     int found = 0;
     for (const Keypoint& k : e.keypoints) {
-      if (k.octave > 2 || (k.pixel - Eigen::Vector2f(v.x, v.y)).norm() > 4.0f) continue;
+      if (k.octave > 2 || (k.pixel.vec() - Eigen::Vector2f(v.x, v.y)).norm() > 4.0f) continue;
       ++found;
       EXPECT_NEAR(AngleDifference(k.angle_deg, v.angle), 0.0, 8.0)
           << "vertex " << v.x << "," << v.y << " octave " << int(k.octave);
@@ -291,7 +291,7 @@ TEST(OrbExtractor, RotatedImageGivesRotatedAnglesAndMatchingDescriptors) {
     const float tolerance = 0.75f * static_cast<float>(extractor.scale_factors()[ka.octave]);
     for (size_t j = 0; j < b.keypoints.size(); ++j) {
       const Keypoint& kb = b.keypoints[j];
-      if (kb.octave != ka.octave || (kb.pixel - expected).norm() > tolerance) continue;
+      if (kb.octave != ka.octave || (kb.pixel.vec() - expected).norm() > tolerance) continue;
       ++matched;
       angle_ok += std::abs(AngleDifference(kb.angle_deg, ka.angle_deg + 90.0)) < 3.0 ? 1 : 0;
       descriptor_ok += HammingDistance(a.descriptors[i], b.descriptors[j]) <= 50 ? 1 : 0;
@@ -415,7 +415,7 @@ TEST(FinishKeypoints, UndistortsWithTheCameraAndReadsDepth) {
   EXPECT_EQ(keypoints[5].depth, 0.0f);
   EXPECT_FLOAT_EQ(keypoints[6].depth, 1.0f + 0.001f * 320 + 0.0001f * 240);
   // Distortion moves a pixel away from the centre noticeably with tum1's lens.
-  EXPECT_GT((keypoints[0].undistorted - keypoints[0].pixel).norm(), 1.0f);
+  EXPECT_GT((keypoints[0].undistorted.vec() - keypoints[0].pixel.vec()).norm(), 1.0f);
 
   // Without distortion the ideal pixel is the pixel; an empty depth image
   // leaves depth at 0; a depth image of the wrong type is refused.

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "common/keypoint.h"
 #include "common/orb_descriptor.h"
 #include "stages/mapstore/record_array.h"
 
@@ -93,22 +94,6 @@ struct MapVocabulary {
   }
 };
 
-// One keypoint of a keyframe: the fields of extract's Keypoint, in its
-// order and layout (32 bytes; the file's keypoint record since format 2.0),
-// so that a reader can view a mapped file's keypoints as keypoints (track
-// does, stages/track/data/map_io.cc). The virtual right coordinate is not
-// stored: it follows from the depth and the camera's bf.
-struct MapKeypoint {
-  float pixel_x = 0, pixel_y = 0;              // Real (distorted) image pixel.
-  float undistorted_x = 0, undistorted_y = 0;  // Ideal pinhole pixel.
-  float angle_deg = 0;                         // Orientation, [0, 360).
-  uint8_t octave = 0;                          // Pyramid level.
-  float response = 0;                          // Corner score.
-  float depth = 0;                             // Metres; 0 = none.
-
-  bool operator==(const MapKeypoint&) const = default;
-};
-
 struct MapPose {
   double qw = 1, qx = 0, qy = 0, qz = 0;  // Rotation of T_cam_world (unit quaternion).
   double tx = 0, ty = 0, tz = 0;          // Translation of T_cam_world, metres.
@@ -121,8 +106,10 @@ struct KeyFrameRecord {
   double timestamp = 0;   // Seconds (the sequence's clock).
   MapPose T_cam_world;
   // Parallel arrays, one entry per keypoint; views of the file's bytes in a
-  // map read from a file (record_array.h).
-  RecordArray<MapKeypoint> keypoints;
+  // map read from a file (record_array.h; the keypoints of a format 1.x file
+  // are copied). A keypoint's virtual right coordinate is not stored: it
+  // follows from its depth and the camera's bf.
+  RecordArray<Keypoint> keypoints;
   RecordArray<OrbDescriptor> descriptors;
   RecordArray<uint64_t> map_point_ids;  // kNoId = none.
   // Bag of words: (word, value) sorted by word, and the feature vector

@@ -75,7 +75,7 @@ constexpr size_t kMapPointRecordSize = 136;
 // The records whose size format 2.0 changed (docs/mapstore.md, "Versions");
 // files of format 1.x still read.
 struct RecordSizes {
-  // 1.x: 36 bytes (u_right at 28, the octave at 32); 2.0: MapKeypoint's 32.
+  // 1.x: 36 bytes (u_right at 28, the octave at 32); 2.0: Keypoint's 32.
   size_t keypoint;
   size_t bow_entry;    // 1.x: 16 (4 bytes reserved, the value at 8); 2.0: 12 (at 4).
   size_t observation;  // 1.x: 16 (4 bytes reserved); 2.0: 12.
@@ -218,13 +218,13 @@ void WriteMeta(const MapData& map, const MapCounts& c, uint8_t* p) {
   }
 }
 
-// A keypoint record of format 2.0 (MapKeypoint's layout; the padding after
+// A keypoint record of format 2.0 (Keypoint's layout; the padding after
 // the octave zero, as `p` comes).
-void WriteKeypoint(const MapKeypoint& k, uint8_t* p) {
-  Store<float>(p + 0, k.pixel_x);
-  Store<float>(p + 4, k.pixel_y);
-  Store<float>(p + 8, k.undistorted_x);
-  Store<float>(p + 12, k.undistorted_y);
+void WriteKeypoint(const Keypoint& k, uint8_t* p) {
+  Store<float>(p + 0, k.pixel.x());
+  Store<float>(p + 4, k.pixel.y());
+  Store<float>(p + 8, k.undistorted.x());
+  Store<float>(p + 12, k.undistorted.y());
   Store<float>(p + 16, k.angle_deg);
   p[20] = k.octave;
   Store<float>(p + 24, k.response);
@@ -440,7 +440,7 @@ void EncodeSection(const MapData& map, int section, PayloadWriter* w) {
       return EncodeKeyframeTable(map, w);
     case kKeypoints:
       return each([&](const KeyFrameRecord& kf) {
-        for (const MapKeypoint& k : kf.keypoints) {
+        for (const Keypoint& k : kf.keypoints) {
           WriteKeypoint(k, w->Record(kRecordSizes2.keypoint));
         }
       });
@@ -778,16 +778,15 @@ void ParseKeyframeRecord(const uint8_t* r, KeyFrameRecord* out) {
   kf.parent = Load<uint64_t>(r + 80);
 }
 
-// A keypoint record of format 2.0 is a MapKeypoint's bytes (little-endian
-// host), viewed in place; the 3 bytes after the octave are padding (0 in
-// the file).
-static_assert(sizeof(MapKeypoint) == 32 && alignof(MapKeypoint) == 4);
-static_assert(offsetof(MapKeypoint, pixel_x) == 0 && offsetof(MapKeypoint, pixel_y) == 4 &&
-              offsetof(MapKeypoint, undistorted_x) == 8 &&
-              offsetof(MapKeypoint, undistorted_y) == 12 &&
-              offsetof(MapKeypoint, angle_deg) == 16 && offsetof(MapKeypoint, octave) == 20 &&
-              offsetof(MapKeypoint, response) == 24 && offsetof(MapKeypoint, depth) == 28);
-static_assert(std::is_trivially_copyable_v<MapKeypoint>);
+// A keypoint record of format 2.0 is a Keypoint's bytes (little-endian
+// host), viewed in place: the offsets WriteKeypoint writes (a Pixel2f is its
+// x then its y, common/keypoint.h); the 3 bytes after the octave are padding
+// (0 in the file).
+static_assert(sizeof(Keypoint) == kRecordSizes2.keypoint && alignof(Keypoint) == 4);
+static_assert(offsetof(Keypoint, pixel) == 0 && offsetof(Keypoint, undistorted) == 8 &&
+              offsetof(Keypoint, angle_deg) == 16 && offsetof(Keypoint, octave) == 20 &&
+              offsetof(Keypoint, response) == 24 && offsetof(Keypoint, depth) == 28);
+static_assert(std::is_trivially_copyable_v<Keypoint>);
 static_assert(sizeof(OrbDescriptor) == kDescriptorSize);
 
 // Copies `count` entries of `size` bytes at `*p` into `out` (trivially
@@ -836,14 +835,12 @@ void ParsePairs(const uint8_t** p, uint32_t count, size_t size, size_t second_at
 // pixel x, y, undistorted x, y, angle, response, depth, u_right, then the
 // octave) copied; moves `*p` past them. u_right is dropped (it follows from
 // the depth).
-RecordArray<MapKeypoint> KeypointsOfFormat1(const uint8_t** p, uint32_t count) {
-  std::vector<MapKeypoint> out(count);
-  for (MapKeypoint& k : out) {
+RecordArray<Keypoint> KeypointsOfFormat1(const uint8_t** p, uint32_t count) {
+  std::vector<Keypoint> out(count);
+  for (Keypoint& k : out) {
     const uint8_t* r = *p;
-    k.pixel_x = Load<float>(r + 0);
-    k.pixel_y = Load<float>(r + 4);
-    k.undistorted_x = Load<float>(r + 8);
-    k.undistorted_y = Load<float>(r + 12);
+    k.pixel = {Load<float>(r + 0), Load<float>(r + 4)};
+    k.undistorted = {Load<float>(r + 8), Load<float>(r + 12)};
     k.angle_deg = Load<float>(r + 16);
     k.response = Load<float>(r + 20);
     k.depth = Load<float>(r + 24);
@@ -869,8 +866,8 @@ void ParseKeyframeEntries(int section, std::span<const uint8_t> bytes, const Map
     const KeyframeCounts n = CountsOf(table + kKeyframeRecordSize * i);
     switch (section) {
       case kKeypoints:
-        kf.keypoints = sizes.keypoint == sizeof(MapKeypoint)
-                           ? EntriesAt<MapKeypoint>(&p, n.keypoints, mapping)
+        kf.keypoints = sizes.keypoint == sizeof(Keypoint)
+                           ? EntriesAt<Keypoint>(&p, n.keypoints, mapping)
                            : KeypointsOfFormat1(&p, n.keypoints);
         break;
       case kDescriptors:
@@ -1335,10 +1332,10 @@ void MapValidator::CheckKeyFrameContent(const KeyFrameRecord& kf) {
     Fail(k + ": pose quaternion has norm " + text + ", not 1 (within 1e-6)");
   }
   for (size_t i = 0; i < n; ++i) {
-    const MapKeypoint& p = kf.keypoints[i];
-    if (!(std::isfinite(p.pixel_x) && std::isfinite(p.pixel_y) && std::isfinite(p.undistorted_x) &&
-          std::isfinite(p.undistorted_y) && std::isfinite(p.angle_deg) &&
-          std::isfinite(p.response) && std::isfinite(p.depth))) {
+    const Keypoint& p = kf.keypoints[i];
+    if (!(std::isfinite(p.pixel.x()) && std::isfinite(p.pixel.y()) &&
+          std::isfinite(p.undistorted.x()) && std::isfinite(p.undistorted.y()) &&
+          std::isfinite(p.angle_deg) && std::isfinite(p.response) && std::isfinite(p.depth))) {
       Fail(k + " keypoint " + std::to_string(i) + ": a value is not finite");
     }
     if (p.octave >= orb_levels) {

@@ -373,7 +373,7 @@ TEST(MapFile, OtherMapsRoundTrip) {
   EXPECT_EQ(ReadMapFileInfo(EncodeMap(alone), "alone.rrm").sections.size(), 10u);
 }
 
-// Format 2.0's records: a keypoint is a MapKeypoint's 32 bytes (read in
+// Format 2.0's records: a keypoint is a Keypoint's 32 bytes (read in
 // place from a mapped file), a bag-of-words entry (word, value) and an
 // observation (keyframe, keypoint) 12 bytes each, packed.
 TEST(MapFile, FormatTwoRecordSizes) {
@@ -389,7 +389,7 @@ TEST(MapFile, FormatTwoRecordSizes) {
   EXPECT_EQ(Section(file, "bow").size, 12 * bow_entries);
   EXPECT_EQ(Section(file, "observations").size, 12 * observations);
   const MapSectionInfo kp = Section(file, "keypoints");
-  const MapKeypoint& first = map.keyframes[0].keypoints[0];
+  const Keypoint& first = map.keyframes[0].keypoints[0];
   const uint8_t* record = file.data() + HeaderSize(file) + kp.offset;
   EXPECT_EQ(LoadLittleEndian<float>(record + 16), first.angle_deg);
   EXPECT_EQ(record[20], first.octave);

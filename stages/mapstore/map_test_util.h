@@ -52,11 +52,10 @@ inline MapData MakeTestMap(uint32_t seed, const TestMapOptions& o = {}) {
     kf.descriptors.resize(o.keypoints);
     kf.map_point_ids.assign(o.keypoints, kNoId);
     for (int k = 0; k < o.keypoints; ++k) {
-      MapKeypoint& p = kf.keypoints[k];
-      p.pixel_x = pixel(rng);
-      p.pixel_y = pixel(rng) * 0.75f;
-      p.undistorted_x = p.pixel_x + 0.5f;
-      p.undistorted_y = p.pixel_y - 0.25f;
+      Keypoint& p = kf.keypoints[k];
+      p.pixel.x() = pixel(rng);
+      p.pixel.y() = pixel(rng) * 0.75f;
+      p.undistorted = {p.pixel.x() + 0.5f, p.pixel.y() - 0.25f};
       p.angle_deg = pixel(rng) * 0.5f;
       p.response = pixel(rng) * 0.01f;
       p.depth = k % 5 == 0 ? 0.0f : 0.5f + pixel(rng) * 0.01f;

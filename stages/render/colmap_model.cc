@@ -343,7 +343,7 @@ ColmapModel ColmapModelOf(const MapData& map, const std::vector<std::string>& im
     image.T_cam_world = RigidOf(kf.T_cam_world);
     image.name = image_names[k];
     for (size_t i = 0; i < kf.keypoints.size(); ++i) {
-      image.points2d.push_back({kf.keypoints[i].pixel_x + 0.5, kf.keypoints[i].pixel_y + 0.5});
+      image.points2d.push_back({kf.keypoints[i].pixel.x() + 0.5, kf.keypoints[i].pixel.y() + 0.5});
       const uint64_t p = kf.map_point_ids[i];
       image.point3d_ids.push_back(p == kNoId ? -1 : point_id.at(p));
     }

@@ -44,7 +44,7 @@ TEST_F(ColmapModelTest, ModelHoldsThePosesKeypointsAndTracksOfTheMap) {
   EXPECT_LT((m.images[1].T_cam_world.translation - T.translation).norm(), 1e-15);
   const KeyFrameRecord& kf = map_.keyframes[0];
   ASSERT_EQ(m.images[0].points2d.size(), kf.keypoints.size());
-  EXPECT_DOUBLE_EQ(m.images[0].points2d[0][0], kf.keypoints[0].pixel_x + 0.5);
+  EXPECT_DOUBLE_EQ(m.images[0].points2d[0][0], kf.keypoints[0].pixel.x() + 0.5);
   ASSERT_EQ(m.points.size(), map_.map_points.size());
   for (const ColmapPoint& p : m.points) {
     EXPECT_LT(p.error, 1e-3);

@@ -90,7 +90,7 @@ MapScene MakeMapScene(const MapData& map, const std::string& source) {
         continue;
       }
       point.seen_at.push_back(
-          {keyframe, it->keypoints[index].pixel_x, it->keypoints[index].pixel_y});
+          {keyframe, it->keypoints[index].pixel.x(), it->keypoints[index].pixel.y()});
     }
     point.first_keyframe = record.first_keyframe;
     point.loaded = loaded_ids && record.id < loaded_ids->second;

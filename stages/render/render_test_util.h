@@ -89,9 +89,8 @@ inline MapData MakeKnownMap(const std::vector<Rigid3d>& T_world_cam,
       double u = 0, v = 0;
       project(i, &p, &u, &v);
       KeyFrameRecord& kf = map.keyframes[i];
-      MapKeypoint keypoint;
-      keypoint.pixel_x = keypoint.undistorted_x = static_cast<float>(u);
-      keypoint.pixel_y = keypoint.undistorted_y = static_cast<float>(v);
+      Keypoint keypoint;
+      keypoint.pixel = keypoint.undistorted = {static_cast<float>(u), static_cast<float>(v)};
       keypoint.depth = static_cast<float>(p.z());
       mp.observations.push_back({kf.id, static_cast<uint32_t>(kf.keypoints.size())});
       kf.keypoints.push_back(keypoint);

@@ -94,7 +94,7 @@ inline SyntheticView RenderView(const SensorModel& sensor, const std::vector<Sce
     if (options.pixel_noise > 0) px += Eigen::Vector2d(noise(rng), noise(rng));
     if (!sensor.bounds.Contains(px.x(), px.y())) continue;
     Keypoint kp;
-    kp.pixel = px.cast<float>();
+    kp.pixel = Eigen::Vector2f(px.cast<float>());
     kp.undistorted = kp.pixel;
     kp.depth = options.with_depth ? static_cast<float>(pc.z()) : 0.0f;
     view.keypoints.push_back(kp);

@@ -64,18 +64,28 @@ const FrameFeatures::Grid& FrameFeatures::GridFor(const SensorModel& sensor) con
 }
 
 std::shared_ptr<const FrameFeatures> BuildFrameFeatures(const SensorModel& sensor,
-                                                        std::vector<Keypoint> keypoints,
+                                                        RecordArray<Keypoint> keypoints,
                                                         RecordArray<OrbDescriptor> descriptors) {
+  const int n_levels = sensor.pyramid.n_levels;
+  const auto bad_depth = [](float depth) { return !(std::isfinite(depth) && depth >= 0); };
+  // Levels beyond the pyramid cannot come from these settings; they are
+  // clamped so a lookup in the pyramid tables stays in range (the caller
+  // checks the settings of a features file or map against the tracking
+  // settings). Checked through const access first: writing to a view (a
+  // map file's keypoints) copies it.
+  const RecordArray<Keypoint>& read = keypoints;
+  if (std::any_of(read.begin(), read.end(), [&](const Keypoint& kp) {
+        return bad_depth(kp.depth) || kp.octave >= n_levels;
+      })) {
+    for (Keypoint& kp : keypoints) {
+      if (bad_depth(kp.depth)) kp.depth = 0;
+      if (kp.octave >= n_levels) kp.octave = uint8_t(n_levels - 1);
+    }
+  }
   auto features = std::make_shared<FrameFeatures>();
-  const size_t n = keypoints.size();
-  features->u_right.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    Keypoint& kp = keypoints[i];
-    if (!(std::isfinite(kp.depth) && kp.depth > 0)) kp.depth = 0;
-    // Levels beyond the pyramid cannot come from these settings; clamp so a
-    // lookup in the pyramid tables stays in range (the caller checks the
-    // settings of a features file against the tracking settings).
-    if (kp.octave >= sensor.pyramid.n_levels) kp.octave = uint8_t(sensor.pyramid.n_levels - 1);
+  features->u_right.resize(read.size());
+  for (size_t i = 0; i < read.size(); ++i) {
+    const Keypoint& kp = read[i];
     features->u_right[i] =
         kp.depth > 0 ? static_cast<float>(kp.undistorted.x() - sensor.bf / kp.depth) : -1.0f;
   }

@@ -29,10 +29,10 @@ class MapPoint;
 // Thread-safe (const; the grid's first build is once, under std::call_once).
 struct FrameFeatures {
   // Undistorted keypoints (Keypoint::undistorted is the ideal pixel used by
-  // all geometry; Keypoint::depth is metres, 0 = none).
-  std::vector<Keypoint> keypoints;
-  // Parallel to keypoints. A loaded map's keyframes view them in the map
+  // all geometry; Keypoint::depth is metres, 0 = none) and their
+  // descriptors, parallel. A loaded map's keyframes view both in the map
   // file's mapping (record_array.h; LoadMapData), others own them.
+  RecordArray<Keypoint> keypoints;
   RecordArray<OrbDescriptor> descriptors;
   // Virtual right-image u of each keypoint, u - bf / depth, ideal pixels;
   // negative when the keypoint has no depth (ORB-SLAM2's mvuRight).
@@ -64,10 +64,12 @@ struct FrameFeatures {
 };
 
 // Builds the shared features of an image from keypoints whose `undistorted`
-// and `depth` fields are final (FinishKeypoints or a features file). Depths
-// that are not finite or not positive count as no depth.
+// and `depth` fields are final (FinishKeypoints, a features file or a map
+// file). Depths that are not finite or not positive count as no depth (set
+// to 0) and octaves beyond the pyramid are clamped to its last level; views
+// stay views unless a keypoint needs such a fix (record_array.h).
 std::shared_ptr<const FrameFeatures> BuildFrameFeatures(const SensorModel& sensor,
-                                                        std::vector<Keypoint> keypoints,
+                                                        RecordArray<Keypoint> keypoints,
                                                         RecordArray<OrbDescriptor> descriptors);
 
 // What a frame and a keyframe share: the image's features and timestamp, a

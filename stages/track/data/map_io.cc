@@ -94,19 +94,9 @@ MapData ToMapData(const Map& map, const MapCamera& camera, const Vocabulary& voc
     r.timestamp = kf->timestamp();
     r.T_cam_world = MapPoseOf(kf->T_cam_world());
     const FrameFeatures& f = kf->features();
-    r.keypoints.resize(f.size());
+    r.keypoints = f.keypoints;  // A loaded keyframe's view stays one (shared).
     r.map_point_ids.assign(f.size(), kNoId);
     for (size_t i = 0; i < f.size(); ++i) {
-      const Keypoint& k = f.keypoints[i];
-      MapKeypoint& m = r.keypoints[i];
-      m.pixel_x = k.pixel.x();
-      m.pixel_y = k.pixel.y();
-      m.undistorted_x = k.undistorted.x();
-      m.undistorted_y = k.undistorted.y();
-      m.angle_deg = k.angle_deg;
-      m.response = k.response;
-      m.depth = k.depth;
-      m.octave = k.octave;
       const MapPoint* p = kf->map_point(i);
       if (p != nullptr && !p->bad() && point_kept[p->id()] &&
           p->IndexIn(kf) == static_cast<int>(i)) {
@@ -209,7 +199,7 @@ void CheckMapCompatible(const MapData& data, const MapCamera& camera, const Voca
 }
 
 HeapReservation ReserveHeapForLoadMap(const std::filesystem::path& path) {
-  return ReserveHeapForMap(path, 4, 1.1);
+  return ReserveHeapForMap(path, 4, 0.8);
 }
 
 void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& vocabulary,
@@ -236,23 +226,11 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
   WorkerPool pool(recompute_bow ? 2 : 1);
   pool.ParallelFor(frames.size(), [&](size_t k) {
     KeyFrameRecord& r = data.keyframes[k];
-    const RecordArray<MapKeypoint>& map_keypoints = r.keypoints;  // Read in place.
-    // The descriptors go to the frame as they are: a view of the map file
-    // stays one (no copy, no fresh memory: 29% of the file).
-    std::vector<Keypoint> keypoints(map_keypoints.size());
-    for (size_t i = 0; i < keypoints.size(); ++i) {
-      const MapKeypoint& m = map_keypoints[i];
-      Keypoint& kp = keypoints[i];
-      kp.pixel = {m.pixel_x, m.pixel_y};
-      kp.undistorted = {m.undistorted_x, m.undistorted_y};
-      kp.angle_deg = m.angle_deg;
-      kp.octave = m.octave;
-      kp.response = m.response;
-      kp.depth = m.depth;
-    }
+    // The keypoints and descriptors go to the frame as they are: views of
+    // the map file stay views (no copy, no fresh memory: 62% of the file).
     Frame& frame = frames[k].emplace(
         r.frame_id, r.timestamp,
-        BuildFrameFeatures(sensor, std::move(keypoints), std::move(r.descriptors)));
+        BuildFrameFeatures(sensor, std::move(r.keypoints), std::move(r.descriptors)));
     frame.SetPose(RigidOf(r.T_cam_world));
     if (recompute_bow) {
       frame.ComputeBow(vocabulary, bow_levels_up);
@@ -263,10 +241,9 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
       fv.entries = std::move(r.feature_vector);
       frame.SetBow(std::move(bow), std::move(fv));
     }
-    // Freed now, not with `data`: the heap gives their memory (when they do
+    // Freed now, not with `data`: the heap gives its memory (when it does
     // not view a file) to the next keyframes' frames instead of fresh pages
     // (a big map's load is mostly first touches of memory).
-    r.keypoints = {};
     r.map_point_ids = {};
   });
   std::vector<KeyFrame*> keyframes;
@@ -309,7 +286,7 @@ void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& voca
       }
     }
   });
-  for (MapPointRecord& r : data.map_points) r.observations = {};  // As the keypoints above.
+  for (MapPointRecord& r : data.map_points) r.observations = {};  // As the links above.
   map->ReserveIds(data.next_keyframe_id, data.next_map_point_id);
 
   // Graph: covisibility, spanning tree, loop edges. The root (no parent)

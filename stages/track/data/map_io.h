@@ -48,11 +48,13 @@ void CheckMapCompatible(const MapData& data, const MapCamera& camera, const Voca
 
 // The calling thread's heap prepared for ReadMapFile(`path`) and then
 // LoadMapData on this thread (ReserveHeapForMap, map_file.h: huge-page
-// memory, 1.1x the file's size made resident ahead of the load by a thread
-// of its own). The loaded map holds about 0.9x the file's size (at 10k
-// keyframes 1.01 GB of a 1.12 GB file, the records before it 0.44 GB): the
-// keyframes' descriptors stay in the file's mapping, the rest is copied once
-// (docs/mapstore.md). Keep it while the load allocates.
+// memory, 0.8x the file's size made resident ahead of the load by a thread
+// of its own). The keyframes' keypoints and descriptors stay in the file's
+// mapping, the rest is copied once (docs/mapstore.md): at 10k keyframes the
+// load's heap peaks at 0.69 GB of a 1.03 GB file (1.01 GB of a 1.12 GB one
+// when the keypoints were copied); the resident head start was 1.1x then,
+// and pages made resident beyond the load's need only held the second core
+// back from the checksum. Keep it while the load allocates.
 HeapReservation ReserveHeapForLoadMap(const std::filesystem::path& path);
 
 // Loads `data` (ValidateMapData-checked) into an empty `map` and `database`.
@@ -60,11 +62,11 @@ HeapReservation ReserveHeapForLoadMap(const std::filesystem::path& path);
 // vectors are recomputed when `bow_levels_up` differs from the saved one),
 // connections, parents and loop edges; map points their ids, positions,
 // normals, distances, descriptors, counters and observations. `data` is
-// consumed (its arrays move into the map; descriptors that view a map
-// file, ReadMapFile, stay views: the keyframes keep the file's mapping
-// open). Throws DataError naming `source` when `map` is not empty or a next
-// id is above CheckMapNextIds' bound (map_file.h: ids index the map's
-// arrays).
+// consumed (its arrays move into the map; keypoints and descriptors that
+// view a map file, ReadMapFile, stay views: the keyframes keep the file's
+// mapping open). Throws DataError naming `source` when `map` is not empty
+// or a next id is above CheckMapNextIds' bound (map_file.h: ids index the
+// map's arrays).
 void LoadMapData(MapData data, const SensorModel& sensor, const Vocabulary& vocabulary,
                  int bow_levels_up, Map* map, KeyFrameDatabase* database,
                  const std::string& source);

@@ -158,10 +158,11 @@ TEST_F(MapIoTest, ABigMapRoundTripsByteIdentically) {
   EXPECT_EQ(loaded.num_map_points(), big.map_points.size());
 }
 
-// Loaded from a file, the keyframes keep their descriptors in the file's
-// mapping (no copy) and the map stays as read when a new map replaces the
-// file (rrslam saves by rename); saved again, it gives the file's bytes.
-TEST_F(MapIoTest, KeyframesLoadedFromAFileViewItsDescriptors) {
+// Loaded from a file, the keyframes keep their keypoints and descriptors in
+// the file's mapping (no copy) and the map stays as read when a new map
+// replaces the file (rrslam saves by rename); saved again, it gives the
+// file's bytes.
+TEST_F(MapIoTest, KeyframesLoadedFromAFileViewItsKeypointsAndDescriptors) {
   const rrslam::testing::TempDir dir;
   const std::vector<uint8_t> bytes = EncodeMap(Save(map_));
   WriteMapFile(dir / "map.rrm", Save(map_));
@@ -174,10 +175,13 @@ TEST_F(MapIoTest, KeyframesLoadedFromAFileViewItsDescriptors) {
   }
   WriteMapFile(dir / "map.rrm", Save(Map()));
   for (const KeyFrame* kf : loaded.KeyFrames()) {
+    EXPECT_TRUE(kf->features().keypoints.is_view());
     EXPECT_TRUE(kf->features().descriptors.is_view());
     const KeyFrame* original = map_.keyframe_by_id(kf->id());
     ASSERT_NE(original, nullptr);
+    EXPECT_EQ(kf->features().keypoints, original->features().keypoints);
     EXPECT_EQ(kf->features().descriptors, original->features().descriptors);
+    EXPECT_EQ(kf->features().u_right, original->features().u_right);
   }
   EXPECT_EQ(EncodeMap(Save(loaded)), bytes);
   // From bytes in memory they are the frames' own.
@@ -185,6 +189,7 @@ TEST_F(MapIoTest, KeyframesLoadedFromAFileViewItsDescriptors) {
   KeyFrameDatabase parsed_database(vocabulary_);
   LoadMapData(ParseMap(bytes, "bytes"), sensor_, vocabulary_, 1, &parsed, &parsed_database,
               "bytes");
+  EXPECT_FALSE(parsed.KeyFrames().front()->features().keypoints.is_view());
   EXPECT_FALSE(parsed.KeyFrames().front()->features().descriptors.is_view());
 }
 

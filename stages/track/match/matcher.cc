@@ -382,7 +382,7 @@ int Matcher::SearchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2,
               const double dey = ey - kp2.undistorted.y();
               if (dex * dex + dey * dey < 100.0 * pyramid.scale[kp2.octave]) continue;
             }
-            if (NearEpipolarLine(kp1.undistorted, kp2.undistorted, F12,
+            if (NearEpipolarLine(kp1.undistorted.vec(), kp2.undistorted.vec(), F12,
                                  pyramid.sigma2[kp2.octave])) {
               best_idx2 = static_cast<int>(idx2);
               best_dist = dist;

@@ -253,7 +253,7 @@ TEST_F(ProjectionSearchTest, LocalMapSearchRejectsAmbiguousCandidates) {
   testing::SyntheticView view;
   for (int k = 0; k < 2; ++k) {
     Keypoint kp;
-    kp.pixel = (px + Eigen::Vector2d(0.5 * k, 0)).cast<float>();
+    kp.pixel = Eigen::Vector2f((px + Eigen::Vector2d(0.5 * k, 0)).cast<float>());
     kp.undistorted = kp.pixel;
     kp.depth = static_cast<float>((T_current_ * sp.position).z());
     view.keypoints.push_back(kp);
@@ -386,7 +386,7 @@ TEST(TriangulationSearchTest, MatchesOnlyAlongEpipolarLines) {
   const size_t n2 = v2.keypoints.size();
   for (size_t i = 0; i < n2; ++i) {
     Keypoint decoy = v2.keypoints[i];
-    decoy.undistorted += Eigen::Vector2f(0, 30);
+    decoy.undistorted.y() += 30;
     decoy.pixel = decoy.undistorted;
     if (!sensor.bounds.Contains(decoy.undistorted.x(), decoy.undistorted.y())) continue;
     v2.keypoints.push_back(decoy);

@@ -285,6 +285,8 @@ class Tracker {
   // ORB-SLAM2's mnLastRelocFrameId: the frame of the last relocalization, or
   // of the initialization (which ORB-SLAM2 treats alike: frame 0).
   uint64_t relocalized_frame_id_ = 0;
+  // The per-id marks below sized to the map's ids (new ones zero).
+  void SizeMarks();
   bool RecentlyRelocalized(uint64_t frames) const {
     return current_.id() < relocalized_frame_id_ + frames;
   }
