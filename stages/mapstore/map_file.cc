@@ -376,7 +376,8 @@ class PayloadWriter {
 
  private:
   static constexpr size_t kRecordBytes = 256;
-  static constexpr size_t kBufferBytes = kChunkBytes + FileSink::kAlignment;  // Slack >= a record.
+  static constexpr size_t kBufferBytes = kChunkBytes + FileSink::kAlignment;
+  static_assert(kBufferBytes - kChunkBytes >= kRecordBytes, "the slack holds a record");
   struct Free {
     void operator()(uint8_t* p) const { std::free(p); }
   };
