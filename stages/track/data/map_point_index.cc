@@ -308,16 +308,25 @@ void MapPointIndex::CandidateRows(const OrbDescriptor& query, std::vector<Probe>
   // The query's bucket in each table, then (probe level 1) those one key
   // bit away.
   const int flips = options_.probe_level > 0 ? options_.key_bits : 0;
+  // Every probed key first, its block prefetched (12 tables of 21 probes
+  // over 3 MB of blocks, beyond the L2 cache), then their ranks.
   probes->clear();
   for (const Table& table : tables_) {
     const uint32_t key = table.Key(query);
     for (int flip = -1; flip < flips; ++flip) {
-      const int64_t rank = table.Rank(flip < 0 ? key : key ^ (1u << flip));
-      if (rank < 0) continue;
-      probes->push_back({&table, static_cast<uint32_t>(rank)});
-      __builtin_prefetch(&table.offsets[static_cast<size_t>(rank)]);
+      const uint32_t probed = flip < 0 ? key : key ^ (1u << flip);
+      __builtin_prefetch(&table.blocks[probed >> 6]);
+      probes->push_back({&table, probed});
     }
   }
+  size_t kept = 0;
+  for (const Probe& probe : *probes) {
+    const int64_t rank = probe.table->Rank(probe.rank);
+    if (rank < 0) continue;
+    (*probes)[kept++] = {probe.table, static_cast<uint32_t>(rank)};
+    __builtin_prefetch(&probe.table->offsets[static_cast<size_t>(rank)]);
+  }
+  probes->resize(kept);
   rows->clear();
   for (const Probe& probe : *probes) {
     const uint32_t* offset = &probe.table->offsets[probe.rank];

@@ -115,7 +115,8 @@ class MapPointIndex {
 
  private:
   struct Table;
-  // A bucket to read: that of the `rank`-th key present in `table`.
+  // A bucket to read: that of the `rank`-th key present in `table` (while
+  // CandidateRows gathers them, the key probed).
   struct Probe {
     const Table* table;
     uint32_t rank;
