@@ -5,6 +5,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <new>
 #include <utility>
 
 #include "common/errors.h"
@@ -15,6 +16,12 @@ namespace {
 bool Aligned(uint64_t value) { return value % FileSink::kAlignment == 0; }
 
 }  // namespace
+
+FileSink::Buffer FileSink::AlignedBuffer(size_t bytes) {
+  Buffer buffer(static_cast<uint8_t*>(std::aligned_alloc(kAlignment, bytes)));
+  if (buffer == nullptr) throw std::bad_alloc();
+  return buffer;
+}
 
 FileSink::FileSink(const std::filesystem::path& file, std::string name) : name_(std::move(name)) {
   fd_ = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);

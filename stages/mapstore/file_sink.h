@@ -15,7 +15,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <span>
 #include <string>
 
@@ -26,6 +28,14 @@ class FileSink {
   // Direct writes need offsets, sizes and buffers aligned to the device's
   // logical block (512 or 4096 bytes): 4096 suits both.
   static constexpr size_t kAlignment = 4096;
+
+  struct FreeBuffer {
+    void operator()(uint8_t* p) const { std::free(p); }
+  };
+  using Buffer = std::unique_ptr<uint8_t, FreeBuffer>;
+  // `bytes` (a multiple of kAlignment) of memory aligned for direct writes,
+  // uninitialized. Throws std::bad_alloc.
+  static Buffer AlignedBuffer(size_t bytes);
 
   // Creates (or truncates) `file`; `name` prefixes errors (the final path
   // of an atomic output). Throws CantCreateError.

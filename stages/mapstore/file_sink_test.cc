@@ -2,10 +2,8 @@
 
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 #include <fstream>
 #include <iterator>
-#include <memory>
 #include <numeric>
 #include <vector>
 
@@ -16,10 +14,6 @@ namespace rrslam {
 namespace {
 
 using testing::TempDir;
-
-struct Free {
-  void operator()(uint8_t* p) const { std::free(p); }
-};
 
 std::vector<uint8_t> FileBytes(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -33,8 +27,7 @@ TEST(FileSink, PiecesLandAtTheirOffsets) {
   TempDir dir;
   constexpr size_t kBlock = FileSink::kAlignment;
   constexpr size_t kPiece = 16 * kBlock;
-  std::unique_ptr<uint8_t, Free> buffer(
-      static_cast<uint8_t*>(std::aligned_alloc(kBlock, kPiece + kBlock)));
+  const FileSink::Buffer buffer = FileSink::AlignedBuffer(kPiece + kBlock);
   std::vector<uint8_t> expected(3 * kPiece + 1000, 0);
   std::iota(expected.begin(), expected.end(), uint8_t{7});
   FileSink sink(dir / "out.bin", "out.bin");

@@ -10,13 +10,11 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <future>
 #include <limits>
 #include <memory>
-#include <new>
 #include <stdexcept>
 #include <system_error>
 #include <type_traits>
@@ -313,9 +311,8 @@ class PayloadWriter {
   // The payload starts at file offset `payload_offset`.
   PayloadWriter(uint64_t payload_offset, PayloadSink sink)
       : sink_(std::move(sink)),
-        chunk_(static_cast<uint8_t*>(std::aligned_alloc(FileSink::kAlignment, kBufferBytes))),
+        chunk_(FileSink::AlignedBuffer(kBufferBytes)),
         payload_offset_(payload_offset) {
-    if (chunk_ == nullptr) throw std::bad_alloc();
     base_ = payload_offset - payload_offset % kChunkBytes;
     fill_ = hashed_ = payload_offset - base_;
     std::memset(chunk_.get(), 0, fill_);
@@ -378,9 +375,6 @@ class PayloadWriter {
   static constexpr size_t kRecordBytes = 256;
   static constexpr size_t kBufferBytes = kChunkBytes + FileSink::kAlignment;
   static_assert(kBufferBytes - kChunkBytes >= kRecordBytes, "the slack holds a record");
-  struct Free {
-    void operator()(uint8_t* p) const { std::free(p); }
-  };
 
   // Payload bytes so far.
   uint64_t written() const { return base_ + fill_ - payload_offset_; }
@@ -402,7 +396,7 @@ class PayloadWriter {
   }
 
   PayloadSink sink_;
-  std::unique_ptr<uint8_t, Free> chunk_;
+  FileSink::Buffer chunk_;
   uint64_t payload_offset_ = 0;
   uint64_t base_ = 0;  // File offset of chunk_[0].
   size_t fill_ = 0, hashed_ = 0;
